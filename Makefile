@@ -1,0 +1,39 @@
+# penumbra — see README.md. `make ci` is exactly what .ci/run does.
+CARGO ?= cargo
+
+.PHONY: build test lint fmt bench demo schemas fuzz ci deps-check
+
+build:
+	$(CARGO) build --release
+
+test:
+	$(CARGO) test --workspace
+
+lint:
+	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+fmt:
+	$(CARGO) fmt --all
+
+# Benchmarks (criterion); figures are recorded in docs/benchmarks.md.
+bench:
+	$(CARGO) bench --bench tables
+
+# The README's first command: bake the demo config.
+demo:
+	$(CARGO) run --release -- bake bake-configs/demo.toml
+
+# Regenerate the committed JSON Schema (a test fails when it is stale).
+schemas:
+	$(CARGO) run --release -- schema > schemas/bake-config.schema.json
+
+# Fuzz the asset loader (needs cargo-fuzz; installs it). FUZZ_SECONDS=60 by default.
+fuzz:
+	bash fuzz/run.sh $${FUZZ_SECONDS:-60}
+
+deps-check:
+	bash .ci/check-deps.sh
+
+ci:
+	bash .ci/run

@@ -1,0 +1,165 @@
+//! `penumbra bake <config.toml>`: run every stage a config names, skip the up-to-date ones,
+//! write `report.json`.
+
+use crate::args::BakeArgs;
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::write_atomic_text;
+use crate::progress::ProgressMode;
+use anyhow::{Context, anyhow};
+use penumbra_asset::AssetFile;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Stage names in execution order; a stage's index is its work-item index for `--shard`.
+pub const STAGES: &[&str] = &["tables"];
+
+/// Parses `K/N` (0 ≤ K < N).
+pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
+    let bad = || CliError::input(anyhow!("--shard {s:?}: expected K/N with 0 ≤ K < N, e.g. 0/4"));
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    if n == 0 || k >= n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// The cache key recorded in an existing asset's metadata, if it is a valid asset.
+fn existing_cache_key(path: &Path) -> Option<(String, Value)> {
+    let file = AssetFile::open(path).ok()?;
+    let meta: Value = serde_json::from_str(file.asset().meta_json()).ok()?;
+    let key = meta.get("cache_key")?.as_str()?.to_string();
+    Some((key, meta.get("metrics").cloned().unwrap_or(Value::Null)))
+}
+
+struct StageReport {
+    value: Value,
+}
+
+fn run_tables(
+    cfg: &penumbra_config::LoadedConfig,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    let Some(t) = &cfg.config.tables else {
+        return Err(CliError::internal(anyhow!("tables stage selected but not configured")));
+    };
+    let env = t.env.as_ref().map(|e| cfg.resolve(e));
+    if let Some(e) = &env {
+        if !e.is_file() {
+            return Err(CliError::input(anyhow!(
+                "{}: `tables.env`: environment map {} does not exist",
+                cfg.path.display(),
+                e.display()
+            )));
+        }
+    }
+    let p = super::tables::params(
+        t.order,
+        t.theta_samples.unwrap_or(256),
+        t.shading_tolerance.unwrap_or(1.0 / 256.0),
+        env.as_deref(),
+    )?;
+    let output = out_dir.join(t.output_name());
+    let key = super::tables::cache_key(&p);
+    let start = Instant::now();
+    if !force {
+        if let Some((existing, metrics)) = existing_cache_key(&output) {
+            if existing == key {
+                return Ok(StageReport {
+                    value: json!({
+                        "name": "tables", "kind": "SHTB", "status": "up-to-date",
+                        "output": output.display().to_string(), "cache_key": key,
+                        "bytes": std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0),
+                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
+                    }),
+                });
+            }
+        }
+    }
+    let o = super::tables::bake_to(&p, &output, mode)?;
+    Ok(StageReport {
+        value: json!({
+            "name": "tables", "kind": "SHTB", "status": "baked",
+            "output": output.display().to_string(), "cache_key": key,
+            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
+        }),
+    })
+}
+
+/// Runs `penumbra bake`.
+#[allow(clippy::print_stderr)]
+pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let cfg = penumbra_config::load(&a.config).map_err(CliError::input)?;
+    let configured: Vec<&str> = STAGES
+        .iter()
+        .copied()
+        .filter(|s| match *s {
+            "tables" => cfg.config.tables.is_some(),
+            _ => false,
+        })
+        .collect();
+    if let Some(only) = &a.only {
+        if !STAGES.contains(&only.as_str()) {
+            return Err(CliError::input(anyhow!("--only {only:?}: unknown stage (stages: {})", STAGES.join(", "))));
+        }
+        if !configured.contains(&only.as_str()) {
+            return Err(CliError::input(anyhow!("--only {only:?}: {} has no [{only}] stage", a.config.display())));
+        }
+    }
+    let shard = a.shard.as_deref().map(parse_shard).transpose()?;
+    let out_dir: PathBuf = cfg.output_dir();
+    std::fs::create_dir_all(&out_dir)
+        .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
+
+    let mut stages = Vec::new();
+    for (item, name) in configured.iter().enumerate() {
+        let skip = |status: &str| json!({"name": name, "status": status});
+        if a.only.as_deref().is_some_and(|o| o != *name) {
+            stages.push(skip("skipped-by-only"));
+            continue;
+        }
+        if let Some((k, n)) = shard {
+            if item % n != k {
+                stages.push(skip("skipped-by-shard"));
+                continue;
+            }
+        }
+        let r = match *name {
+            "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
+            other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
+        };
+        if !a.json {
+            eprintln!(
+                "{:<8} {:<10} {} ({:.2} s)",
+                name,
+                r.value["status"].as_str().unwrap_or(""),
+                r.value["output"].as_str().unwrap_or(""),
+                r.value["seconds"].as_f64().unwrap_or(0.0)
+            );
+        }
+        stages.push(r.value);
+    }
+    let report = json!({
+        "config": a.config.display().to_string(),
+        "output_dir": out_dir.display().to_string(),
+        "shard": a.shard,
+        "stages": stages,
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    let report_path = match shard {
+        Some((k, n)) => out_dir.join(format!("report.shard-{k}-of-{n}.json")),
+        None => out_dir.join("report.json"),
+    };
+    write_atomic_text(&report_path, &(serde_json::to_string_pretty(&report).map_err(CliError::internal)? + "\n"))?;
+    if a.json {
+        print_json(&report);
+    } else {
+        eprintln!("report: {}", report_path.display());
+    }
+    Ok(ExitCode::Ok)
+}

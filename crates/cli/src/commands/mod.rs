@@ -1,0 +1,31 @@
+//! Command implementations.
+
+pub mod bake;
+pub mod inspect;
+pub mod tables;
+
+use crate::args::{Cli, Command};
+use crate::exit::{CliError, ExitCode};
+
+/// Runs a parsed command line.
+#[allow(clippy::print_stdout)]
+pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
+    if let Some(n) = cli.threads {
+        rayon::ThreadPoolBuilder::new().num_threads(n as usize).build_global().map_err(CliError::internal)?;
+    }
+    match cli.command {
+        Command::Tables(a) => tables::run(&a, cli.progress),
+        Command::Inspect(a) => inspect::run(&a),
+        Command::Bake(a) => bake::run(&a, cli.progress),
+        Command::Schema => {
+            print!("{}", penumbra_config::schema_json());
+            Ok(ExitCode::Ok)
+        }
+    }
+}
+
+/// Prints a JSON value on stdout (one object, newline-terminated).
+#[allow(clippy::print_stdout)]
+pub fn print_json(v: &serde_json::Value) {
+    println!("{}", serde_json::to_string_pretty(v).unwrap_or_else(|_| "{}".into()));
+}

@@ -1,0 +1,83 @@
+use penumbra_config::{ConfigErrorKind, parse_str};
+use std::path::Path;
+
+fn err(src: &str) -> penumbra_config::ConfigError {
+    parse_str(src, Path::new("scene.toml")).expect_err("config should be rejected")
+}
+
+#[test]
+fn valid_config_parses() {
+    let c = parse_str("output_dir = \"out\"\n[tables]\norder = 4\ntheta_samples = 128\n", Path::new("a.toml")).unwrap();
+    let t = c.tables.unwrap();
+    assert_eq!(t.order, 4);
+    assert_eq!(t.theta_samples, Some(128));
+    assert_eq!(t.output_name(), "tables.shtb");
+}
+
+#[test]
+fn unknown_key_named_with_path_and_line() {
+    let e = err("output_dir = \"out\"\n\n[tables]\norder = 4\nordr = 5\n");
+    assert_eq!(e.kind, ConfigErrorKind::Field);
+    assert_eq!(e.key, "tables.ordr");
+    assert_eq!(e.line, Some(5));
+    let msg = e.to_string();
+    assert!(msg.starts_with("scene.toml:5:1: `tables.ordr`: unknown field `ordr`"), "{msg}");
+}
+
+#[test]
+fn unknown_top_level_key() {
+    let e = err("output_dir = \"out\"\nspheres_typo = 1\n[tables]\norder = 4\n");
+    assert_eq!(e.key, "spheres_typo");
+    assert_eq!(e.line, Some(2));
+}
+
+#[test]
+fn wrong_type_names_key_and_line() {
+    let e = err("output_dir = \"out\"\n[tables]\norder = \"four\"\n");
+    assert_eq!(e.kind, ConfigErrorKind::Field);
+    assert_eq!(e.key, "tables.order");
+    assert_eq!(e.line, Some(3));
+}
+
+#[test]
+fn out_of_range_value_names_key_line_and_range() {
+    let e = err("output_dir = \"out\"\n[tables]\n\norder = 11\n");
+    assert_eq!(e.kind, ConfigErrorKind::Invalid);
+    assert_eq!(e.key, "tables.order");
+    assert_eq!(e.line, Some(4));
+    assert!(e.to_string().contains("allowed: 2..=8"), "{e}");
+}
+
+#[test]
+fn missing_required_key() {
+    let e = err("[tables]\norder = 4\n");
+    assert!(e.to_string().contains("output_dir"), "{e}");
+}
+
+#[test]
+fn syntax_error_has_line() {
+    let e = err("output_dir = \"out\"\n[tables\norder = 4\n");
+    assert_eq!(e.kind, ConfigErrorKind::Syntax);
+    assert_eq!(e.line, Some(2));
+}
+
+#[test]
+fn output_must_be_a_plain_name() {
+    let e = err("output_dir = \"out\"\n[tables]\norder = 4\noutput = \"../x.shtb\"\n");
+    assert_eq!(e.key, "tables.output");
+    assert_eq!(e.line, Some(4));
+}
+
+#[test]
+fn empty_config_names_missing_stage() {
+    let e = err("output_dir = \"out\"\n");
+    assert_eq!(e.key, "tables");
+}
+
+#[test]
+fn schema_denies_unknown_fields() {
+    let s = penumbra_config::schema_json();
+    let v: serde_json::Value = serde_json::from_str(&s).unwrap();
+    assert_eq!(v["additionalProperties"], serde_json::Value::Bool(false));
+    assert!(s.contains("\"order\""));
+}

@@ -1,0 +1,17 @@
+//! penumbra-sh: SH products, the triple-product tensor, SH exponential and logarithm, and
+//! the SH tables bake (`penumbra tables`).
+//!
+//! SH convention: see [`penumbra_math::sh`]. All bake math is f64.
+
+pub mod eta;
+pub mod exp;
+pub mod gamma;
+pub mod indirect;
+pub mod local_light;
+pub mod log;
+pub mod ohlsh;
+pub mod ol;
+pub mod reference;
+pub mod tables;
+pub mod tables_asset;
+pub mod zonal;
