@@ -54,9 +54,7 @@ impl AabbTree {
     /// tree.
     pub fn build(mesh: &TriMesh) -> Self {
         let n = mesh.indices.len();
-        let corners: Vec<[DVec3; 3]> = (0..n)
-            .map(|t| mesh.triangle(t).map(DVec3::from))
-            .collect();
+        let corners: Vec<[DVec3; 3]> = (0..n).map(|t| mesh.triangle(t).map(DVec3::from)).collect();
         let centroids: Vec<DVec3> = corners.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
         let mut order: Vec<u32> = (0..n as u32).collect();
         let mut nodes: Vec<TreeNode> = Vec::with_capacity(2 * n / LEAF + 1);
@@ -83,22 +81,10 @@ impl AabbTree {
                 cmax = cmax.max(centroids[t as usize]);
             }
             if e - s <= LEAF {
-                nodes.push(TreeNode {
-                    min,
-                    max,
-                    start: s as u32,
-                    count: (e - s) as u32,
-                    right: 0,
-                });
+                nodes.push(TreeNode { min, max, start: s as u32, count: (e - s) as u32, right: 0 });
                 continue;
             }
-            nodes.push(TreeNode {
-                min,
-                max,
-                start: 0,
-                count: 0,
-                right: 0,
-            });
+            nodes.push(TreeNode { min, max, start: 0, count: 0, right: 0 });
             let ext = cmax - cmin;
             let axis = if ext.x >= ext.y && ext.x >= ext.z {
                 0
@@ -109,19 +95,13 @@ impl AabbTree {
             };
             let mid = s + (e - s) / 2;
             order[s..e].select_nth_unstable_by(mid - s, |&a, &b| {
-                centroids[a as usize][axis]
-                    .total_cmp(&centroids[b as usize][axis])
-                    .then(a.cmp(&b))
+                centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
             });
             work.push((mid, e, Some(idx)));
             work.push((s, mid, None));
         }
         let tris = order.iter().map(|&t| corners[t as usize]).collect();
-        Self {
-            nodes,
-            tris,
-            ids: order,
-        }
+        Self { nodes, tris, ids: order }
     }
 
     /// Closest point on the mesh to `p` among points within `sqrt(max_d2)`:
@@ -165,8 +145,7 @@ impl AabbTree {
                 let dl = self.nodes[l as usize].dist2(p);
                 let dr = self.nodes[r as usize].dist2(p);
                 // push the farther child first so the nearer one is visited first
-                let (first, second, d_first, d_second) =
-                    if dl <= dr { (r, l, dr, dl) } else { (l, r, dl, dr) };
+                let (first, second, d_first, d_second) = if dl <= dr { (r, l, dr, dl) } else { (l, r, dl, dr) };
                 if d_first <= best_d2 {
                     stack[sp] = first;
                     sp += 1;

@@ -67,22 +67,12 @@ pub struct Ray {
 impl Ray {
     /// An infinite ray from `origin` (`tmin = 0`).
     pub fn new(origin: [f64; 3], direction: [f64; 3]) -> Self {
-        Self {
-            origin,
-            direction,
-            tmin: 0.0,
-            tmax: f64::INFINITY,
-        }
+        Self { origin, direction, tmin: 0.0, tmax: f64::INFINITY }
     }
 
     /// The segment from `from` (`t = 0`) to `to` (`t = 1`).
     pub fn segment(from: [f64; 3], to: [f64; 3]) -> Self {
-        Self {
-            origin: from,
-            direction: (DVec3::from(to) - DVec3::from(from)).to_array(),
-            tmin: 0.0,
-            tmax: 1.0,
-        }
+        Self { origin: from, direction: (DVec3::from(to) - DVec3::from(from)).to_array(), tmin: 0.0, tmax: 1.0 }
     }
 
     /// The same ray with `t ∈ [tmin, tmax]`.
@@ -194,11 +184,7 @@ impl MeshBvh {
         let center = 0.5 * (min + max);
         let extent = (max - min).max_element();
         // power of two: extent * scale in (512, 1024]
-        let scale = if extent > 0.0 {
-            2f64.powi(10 - extent.log2().ceil() as i32)
-        } else {
-            1.0
-        };
+        let scale = if extent > 0.0 { 2f64.powi(10 - extent.log2().ceil() as i32) } else { 1.0 };
         let to_f32_down = |x: f64| {
             let f = x as f32;
             if (f as f64) > x { f.next_down() } else { f }
@@ -218,16 +204,10 @@ impl MeshBvh {
                 ))
             })
             .collect();
-        let cwbvh = obvhs::cwbvh::builder::build_cwbvh(
-            &boxes,
-            obvhs::BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let cwbvh =
+            obvhs::cwbvh::builder::build_cwbvh(&boxes, obvhs::BvhBuildParams::medium_build(), &mut Duration::default());
         let ids = cwbvh.primitive_indices.clone();
-        let tris = ids
-            .iter()
-            .map(|&i| mesh.triangle(i as usize).map(DVec3::from))
-            .collect();
+        let tris = ids.iter().map(|&i| mesh.triangle(i as usize).map(DVec3::from)).collect();
         let depth = cw_depth(&cwbvh);
         let pad_world = DVec3::splat(PAD / scale);
         Ok(Self {
@@ -286,11 +266,7 @@ impl MeshBvh {
             t0 = t0.max(a);
             t1 = t1.min(b);
         }
-        if t0 <= t1 && t0.is_finite() && t1.is_finite() {
-            Some((t0, t1))
-        } else {
-            None
-        }
+        if t0 <= t1 && t0.is_finite() && t1.is_finite() { Some((t0, t1)) } else { None }
     }
 
     /// Runs the CWBVH traversal for the ray clipped to `[t0, t1]`, calling `prim(slot)` for
@@ -334,11 +310,7 @@ impl MeshBvh {
         let cut = |t: f64| ((t - t0) * len * self.scale) as f32 * (1.0 + 1e-6) + 1e-3;
         let mut state = TraversalState {
             stack: SliceStack { data: buf, len: 0 },
-            current_group: if self.cwbvh.nodes.is_empty() {
-                UVec2::ZERO
-            } else {
-                uvec2(0, 0x8000_0000)
-            },
+            current_group: if self.cwbvh.nodes.is_empty() { UVec2::ZERO } else { uvec2(0, 0x8000_0000) },
             primitive_group: UVec2::ZERO,
             oct_inv4: octant_inv4(dir),
             primitive_id: 0,
@@ -346,19 +318,13 @@ impl MeshBvh {
         };
         let mut node;
         'traversal: {
-            obvhs::traverse!(
-                self.cwbvh,
-                node,
-                state,
-                node.intersect_ray(&ray, state.oct_inv4),
-                {
-                    match prim(state.primitive_id as usize) {
-                        Step::Continue => {}
-                        Step::Shrink(t) => ray.tmax = ray.tmax.min(cut(t)),
-                        Step::Stop => break 'traversal,
-                    }
+            obvhs::traverse!(self.cwbvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
+                match prim(state.primitive_id as usize) {
+                    Step::Continue => {}
+                    Step::Shrink(t) => ray.tmax = ray.tmax.min(cut(t)),
+                    Step::Stop => break 'traversal,
                 }
-            );
+            });
         }
     }
 
@@ -380,11 +346,7 @@ impl MeshBvh {
                     Some(h) => t < h.t || id < h.triangle,
                 };
                 if better {
-                    best = Some(Hit {
-                        t,
-                        triangle: id,
-                        barycentric: [b1, b2],
-                    });
+                    best = Some(Hit { t, triangle: id, barycentric: [b1, b2] });
                     best_t = t;
                     return Step::Shrink(t);
                 }
@@ -441,18 +403,12 @@ impl MeshBvh {
     /// Like [`MeshBvh::closest_point`], but only considers points within `max_distance`
     /// (faster when a bound is known).
     pub fn closest_point_within(&self, p: [f64; 3], max_distance: f64) -> Option<ClosestPoint> {
-        let max_d2 = if max_distance.is_finite() {
-            max_distance * max_distance
-        } else {
-            f64::INFINITY
-        };
-        self.tree
-            .closest_point(DVec3::from(p), max_d2)
-            .map(|(d2, id, q)| ClosestPoint {
-                point: q.to_array(),
-                distance: d2.sqrt(),
-                triangle: id,
-            })
+        let max_d2 = if max_distance.is_finite() { max_distance * max_distance } else { f64::INFINITY };
+        self.tree.closest_point(DVec3::from(p), max_d2).map(|(d2, id, q)| ClosestPoint {
+            point: q.to_array(),
+            distance: d2.sqrt(),
+            triangle: id,
+        })
     }
 }
 
@@ -501,11 +457,7 @@ impl FastStack<UVec2> for SliceStack<'_> {
     }
     #[inline(always)]
     fn pop(&mut self) -> Option<UVec2> {
-        if self.len == 0 {
-            None
-        } else {
-            Some(self.pop_fast())
-        }
+        if self.len == 0 { None } else { Some(self.pop_fast()) }
     }
     #[inline(always)]
     fn len(&self) -> usize {
@@ -551,11 +503,7 @@ pub fn closest_hit_brute_force(mesh: &TriMesh, ray: &Ray) -> Option<Hit> {
         let [a, b, c] = mesh.triangle(t).map(DVec3::from);
         if let Some((th, b1, b2)) = kernel.intersect(a, b, c, ray.tmin, best_t) {
             if best.is_none_or(|h| th < h.t) {
-                best = Some(Hit {
-                    t: th,
-                    triangle: t as u32,
-                    barycentric: [b1, b2],
-                });
+                best = Some(Hit { t: th, triangle: t as u32, barycentric: [b1, b2] });
                 best_t = th;
             }
         }
@@ -583,11 +531,7 @@ pub fn closest_point_brute_force(mesh: &TriMesh, p: [f64; 3]) -> Option<ClosestP
         let x = crate::kernels::closest_point_on_triangle(q, a, b, c);
         let d = (x - q).length();
         if best.is_none_or(|bp| d < bp.distance) {
-            best = Some(ClosestPoint {
-                point: x.to_array(),
-                distance: d,
-                triangle: t as u32,
-            });
+            best = Some(ClosestPoint { point: x.to_array(), distance: d, triangle: t as u32 });
         }
     }
     best

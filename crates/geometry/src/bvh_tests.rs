@@ -4,24 +4,21 @@
 use glam::DVec3;
 use proptest::prelude::*;
 
-use crate::bvh::{
-    MeshBvh, Ray, any_hit_brute_force, closest_hit_brute_force, closest_point_brute_force,
-};
+use crate::bvh::{MeshBvh, Ray, any_hit_brute_force, closest_hit_brute_force, closest_point_brute_force};
 use crate::inside::WindingNumber;
 use crate::mesh::TriMesh;
 use crate::testutil::{grid, icosphere};
 
 fn soup() -> impl Strategy<Value = TriMesh> {
-    prop::collection::vec(prop::array::uniform3(prop::array::uniform3(-1.0f64..1.0)), 1..120)
-        .prop_map(|tris| {
-            let mut m = TriMesh::default();
-            for t in tris {
-                let b = m.positions.len() as u32;
-                m.positions.extend(t);
-                m.indices.push([b, b + 1, b + 2]);
-            }
-            m
-        })
+    prop::collection::vec(prop::array::uniform3(prop::array::uniform3(-1.0f64..1.0)), 1..120).prop_map(|tris| {
+        let mut m = TriMesh::default();
+        for t in tris {
+            let b = m.positions.len() as u32;
+            m.positions.extend(t);
+            m.indices.push([b, b + 1, b + 2]);
+        }
+        m
+    })
 }
 
 fn ray() -> impl Strategy<Value = Ray> {
@@ -165,9 +162,8 @@ fn build_is_deterministic_and_batches_agree() {
     let a = MeshBvh::build(&m).unwrap();
     let b = MeshBvh::build(&m).unwrap();
     assert_eq!(a.cwbvh_fingerprint(), b.cwbvh_fingerprint());
-    let rays: Vec<Ray> = (0..64)
-        .map(|k| Ray::new([0.0, 0.0, 0.0], [(k as f64).sin(), (k as f64 * 0.3).cos(), 0.5]))
-        .collect();
+    let rays: Vec<Ray> =
+        (0..64).map(|k| Ray::new([0.0, 0.0, 0.0], [(k as f64).sin(), (k as f64 * 0.3).cos(), 0.5])).collect();
     let mut out = vec![None; rays.len()];
     a.closest_hits(&rays, &mut out);
     let mut occ = vec![false; rays.len()];
@@ -249,12 +245,7 @@ fn far_field_expansion_is_second_order() {
     let m = icosphere(2, 1.0, [0.0; 3]);
     let cap = TriMesh {
         positions: m.positions.clone(),
-        indices: m
-            .indices
-            .iter()
-            .filter(|t| t.iter().all(|&i| m.positions[i as usize][1] > -0.01))
-            .copied()
-            .collect(),
+        indices: m.indices.iter().filter(|t| t.iter().all(|&i| m.positions[i as usize][1] > -0.01)).copied().collect(),
     };
     let w = WindingNumber::with_beta(&cap, 2.0);
     for dir in [[0.0, 1.0, 0.0], [0.6, -0.8, 0.0], [0.0, -0.6, 0.8]] {

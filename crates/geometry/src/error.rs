@@ -80,10 +80,7 @@ pub struct MeshError {
 impl MeshError {
     /// Builds an error for `path`.
     pub fn new(path: &Path, kind: impl Into<MeshErrorKind>) -> Self {
-        Self {
-            path: path.to_path_buf(),
-            kind: kind.into(),
-        }
+        Self { path: path.to_path_buf(), kind: kind.into() }
     }
 }
 
@@ -159,10 +156,7 @@ pub struct EnvError {
 impl EnvError {
     /// Builds an error for `path`.
     pub fn new(path: &Path, kind: impl Into<EnvErrorKind>) -> Self {
-        Self {
-            path: path.to_path_buf(),
-            kind: kind.into(),
-        }
+        Self { path: path.to_path_buf(), kind: kind.into() }
     }
 }
 

@@ -73,11 +73,7 @@ impl WindingNumber {
     pub fn with_beta(mesh: &TriMesh, beta: f64) -> Self {
         let tree = AabbTree::build(mesh);
         let exp = expansions(&tree);
-        Self {
-            tree,
-            exp,
-            beta: beta.max(1.0),
-        }
+        Self { tree, exp, beta: beta.max(1.0) }
     }
 
     /// The far-field ratio β in use.
@@ -88,12 +84,7 @@ impl WindingNumber {
     /// Exact winding number: the sum of all triangles' solid angles / 4π (O(n)).
     pub fn exact(&self, q: [f64; 3]) -> f64 {
         let q = DVec3::from(q);
-        self.tree
-            .tris
-            .iter()
-            .map(|[a, b, c]| solid_angle(q, *a, *b, *c))
-            .sum::<f64>()
-            / FOUR_PI
+        self.tree.tris.iter().map(|[a, b, c]| solid_angle(q, *a, *b, *c)).sum::<f64>() / FOUR_PI
     }
 
     /// Hierarchical (fast) winding number, see the module docs for its accuracy.
@@ -116,8 +107,7 @@ impl WindingNumber {
             if d2 > (self.beta * e.radius).powi(2) {
                 far += eval_expansion(e, r, d2);
             } else if node.is_leaf() {
-                for [a, b, c] in &self.tree.tris[node.start as usize..(node.start + node.count) as usize]
-                {
+                for [a, b, c] in &self.tree.tris[node.start as usize..(node.start + node.count) as usize] {
                     omega += solid_angle(q, *a, *b, *c);
                 }
             } else {
@@ -194,11 +184,7 @@ fn expansions(tree: &AabbTree) -> Vec<Expansion> {
                 acc += ar * (*a + *b + *c) / 3.0;
             }
             let node = &tree.nodes[i];
-            let center = if area > 0.0 {
-                acc / area
-            } else {
-                0.5 * (node.min + node.max)
-            };
+            let center = if area > 0.0 { acc / area } else { 0.5 * (node.min + node.max) };
             let mut radius: f64 = 0.0;
             let mut nsum = DVec3::ZERO;
             let mut p = [[0.0; 3]; 3];
@@ -236,13 +222,7 @@ fn expansions(tree: &AabbTree) -> Vec<Expansion> {
                     }
                 }
             }
-            Expansion {
-                center,
-                radius,
-                n: nsum,
-                p,
-                q,
-            }
+            Expansion { center, radius, n: nsum, p, q }
         })
         .collect()
 }

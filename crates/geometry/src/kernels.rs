@@ -39,15 +39,7 @@ impl RayKernel {
         if dir[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        Some(Self {
-            origin,
-            kx,
-            ky,
-            kz,
-            sx: dir[kx] / dir[kz],
-            sy: dir[ky] / dir[kz],
-            sz: 1.0 / dir[kz],
-        })
+        Some(Self { origin, kx, ky, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] })
     }
 
     /// Intersection with triangle `(v0, v1, v2)` at `t ∈ [tmin, tmax]`: `(t, b1, b2)` with the
@@ -56,14 +48,7 @@ impl RayKernel {
     /// because each edge function depends only on the edge's two (identically transformed)
     /// vertices and changes sign exactly under reversal of the edge.
     #[inline]
-    pub(crate) fn intersect(
-        &self,
-        v0: DVec3,
-        v1: DVec3,
-        v2: DVec3,
-        tmin: f64,
-        tmax: f64,
-    ) -> Option<(f64, f64, f64)> {
+    pub(crate) fn intersect(&self, v0: DVec3, v1: DVec3, v2: DVec3, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
         let a = v0 - self.origin;
         let b = v1 - self.origin;
         let c = v2 - self.origin;

@@ -2,9 +2,9 @@
 
 mod aabb_tree;
 pub mod bvh;
-pub mod env;
 #[cfg(test)]
 mod bvh_tests;
+pub mod env;
 pub mod error;
 pub mod import;
 pub mod inside;

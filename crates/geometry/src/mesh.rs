@@ -18,10 +18,7 @@ impl Aabb {
     /// The box spanned by `points`, or `None` for an empty slice.
     pub fn from_points(points: &[[f64; 3]]) -> Option<Self> {
         let first = points.first()?;
-        let mut b = Aabb {
-            min: *first,
-            max: *first,
-        };
+        let mut b = Aabb { min: *first, max: *first };
         for p in &points[1..] {
             b.grow(*p);
         }
@@ -38,11 +35,7 @@ impl Aabb {
 
     /// `max - min`.
     pub fn extent(&self) -> [f64; 3] {
-        [
-            self.max[0] - self.min[0],
-            self.max[1] - self.min[1],
-            self.max[2] - self.min[2],
-        ]
+        [self.max[0] - self.min[0], self.max[1] - self.min[1], self.max[2] - self.min[2]]
     }
 
     /// Length of the diagonal.
@@ -52,11 +45,7 @@ impl Aabb {
 
     /// Centre of the box.
     pub fn center(&self) -> [f64; 3] {
-        [
-            0.5 * (self.min[0] + self.max[0]),
-            0.5 * (self.min[1] + self.max[1]),
-            0.5 * (self.min[2] + self.max[2]),
-        ]
+        [0.5 * (self.min[0] + self.max[0]), 0.5 * (self.min[1] + self.max[1]), 0.5 * (self.min[2] + self.max[2])]
     }
 
     /// Whether `p` lies inside or on the boundary.
@@ -117,10 +106,7 @@ pub struct EdgeStats {
 
 impl TriMesh {
     /// Builds a mesh and validates it (see [`TriMesh::validate`]).
-    pub fn new(
-        positions: Vec<[f64; 3]>,
-        indices: Vec<[u32; 3]>,
-    ) -> Result<Self, MeshValidationError> {
+    pub fn new(positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>) -> Result<Self, MeshValidationError> {
         let m = Self { positions, indices };
         m.validate()?;
         Ok(m)
@@ -135,26 +121,14 @@ impl TriMesh {
         if self.indices.is_empty() {
             return Err(MeshValidationError::NoTriangles);
         }
-        if let Some((vertex, p)) = self
-            .positions
-            .iter()
-            .enumerate()
-            .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
-        {
-            return Err(MeshValidationError::NonFinitePosition {
-                vertex,
-                position: *p,
-            });
+        if let Some((vertex, p)) = self.positions.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
+            return Err(MeshValidationError::NonFinitePosition { vertex, position: *p });
         }
         let n = self.positions.len();
         for (t, tri) in self.indices.iter().enumerate() {
             for &i in tri {
                 if i as usize >= n {
-                    return Err(MeshValidationError::IndexOutOfRange {
-                        triangle: t,
-                        index: i,
-                        vertex_count: n,
-                    });
+                    return Err(MeshValidationError::IndexOutOfRange { triangle: t, index: i, vertex_count: n });
                 }
             }
         }
@@ -170,11 +144,7 @@ impl TriMesh {
     #[inline]
     pub fn triangle(&self, t: usize) -> [[f64; 3]; 3] {
         let [a, b, c] = self.indices[t];
-        [
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        ]
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
     /// Bounding box of all vertices (referenced or not); `None` without vertices.
@@ -308,10 +278,8 @@ impl TriMesh {
                 keep[t] = false;
             }
         }
-        let mut keys: Vec<([u32; 3], u32)> = (0..self.indices.len())
-            .filter(|&t| keep[t])
-            .map(|t| (canon(self.indices[t]), t as u32))
-            .collect();
+        let mut keys: Vec<([u32; 3], u32)> =
+            (0..self.indices.len()).filter(|&t| keep[t]).map(|t| (canon(self.indices[t]), t as u32)).collect();
         keys.sort_unstable();
         for w in keys.windows(2) {
             if w[0].0 == w[1].0 {
@@ -320,10 +288,8 @@ impl TriMesh {
             }
         }
         // opposite-orientation pairs among the survivors
-        let mut flipped: Vec<[u32; 3]> = (0..self.indices.len())
-            .filter(|&t| keep[t])
-            .map(|t| canon(self.indices[t]))
-            .collect();
+        let mut flipped: Vec<[u32; 3]> =
+            (0..self.indices.len()).filter(|&t| keep[t]).map(|t| canon(self.indices[t])).collect();
         flipped.sort_unstable();
         for t in (0..self.indices.len()).filter(|&t| keep[t]) {
             let [a, b, c] = self.indices[t];
@@ -333,20 +299,8 @@ impl TriMesh {
             }
         }
         report.opposite_duplicates /= 2;
-        let indices = self
-            .indices
-            .iter()
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-            .map(|(t, _)| *t)
-            .collect();
-        (
-            TriMesh {
-                positions: self.positions.clone(),
-                indices,
-            },
-            report,
-        )
+        let indices = self.indices.iter().zip(&keep).filter(|(_, k)| **k).map(|(t, _)| *t).collect();
+        (TriMesh { positions: self.positions.clone(), indices }, report)
     }
 
     /// Applies `f` to every position.
@@ -426,24 +380,11 @@ pub(crate) mod tests {
     fn validation_errors() {
         let mut m = unit_cube();
         m.positions[3][1] = f64::NAN;
-        assert!(matches!(
-            m.validate(),
-            Err(MeshValidationError::NonFinitePosition { vertex: 3, .. })
-        ));
+        assert!(matches!(m.validate(), Err(MeshValidationError::NonFinitePosition { vertex: 3, .. })));
         let mut m = unit_cube();
         m.indices[5][2] = 8;
-        assert_eq!(
-            m.validate(),
-            Err(MeshValidationError::IndexOutOfRange {
-                triangle: 5,
-                index: 8,
-                vertex_count: 8
-            })
-        );
-        let m = TriMesh {
-            positions: vec![[0.0; 3]],
-            indices: vec![],
-        };
+        assert_eq!(m.validate(), Err(MeshValidationError::IndexOutOfRange { triangle: 5, index: 8, vertex_count: 8 }));
+        let m = TriMesh { positions: vec![[0.0; 3]], indices: vec![] };
         assert_eq!(m.validate(), Err(MeshValidationError::NoTriangles));
     }
 

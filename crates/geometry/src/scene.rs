@@ -29,11 +29,7 @@ pub struct Trs {
 
 impl Default for Trs {
     fn default() -> Self {
-        Self {
-            translation: [0.0; 3],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            scale: [1.0; 3],
-        }
+        Self { translation: [0.0; 3], rotation: [0.0, 0.0, 0.0, 1.0], scale: [1.0; 3] }
     }
 }
 
@@ -46,11 +42,7 @@ impl Trs {
 
 fn to_dmat4_trs(t: &Trs) -> DMat4 {
     let q = DQuat::from_array(t.rotation);
-    let q = if q.length_squared() > 0.0 {
-        q.normalize()
-    } else {
-        DQuat::IDENTITY
-    };
+    let q = if q.length_squared() > 0.0 { q.normalize() } else { DQuat::IDENTITY };
     DMat4::from_scale_rotation_translation(DVec3::from(t.scale), q, DVec3::from(t.translation))
 }
 
@@ -232,29 +224,16 @@ impl Scene {
 
     /// Local transforms of all nodes with `animation` applied at `time` (seconds; clamped to
     /// each channel's key range, as glTF players do).
-    pub fn local_transforms(
-        &self,
-        animation: Option<usize>,
-        time: f64,
-    ) -> Result<Vec<Mat4>, PoseError> {
-        Ok(self
-            .local_dmat4(animation, time)?
-            .iter()
-            .map(|m| m.to_cols_array_2d())
-            .collect())
+    pub fn local_transforms(&self, animation: Option<usize>, time: f64) -> Result<Vec<Mat4>, PoseError> {
+        Ok(self.local_dmat4(animation, time)?.iter().map(|m| m.to_cols_array_2d()).collect())
     }
 
     fn local_dmat4(&self, animation: Option<usize>, time: f64) -> Result<Vec<DMat4>, PoseError> {
         let Some(a) = animation else {
             return Ok(self.rest_locals());
         };
-        let anim = self
-            .animations
-            .get(a)
-            .ok_or(PoseError::NoSuchAnimation {
-                index: a,
-                count: self.animations.len(),
-            })?;
+        let anim =
+            self.animations.get(a).ok_or(PoseError::NoSuchAnimation { index: a, count: self.animations.len() })?;
         if !time.is_finite() {
             return Err(PoseError::BadTime(time));
         }
@@ -293,16 +272,8 @@ impl Scene {
     }
 
     /// Global (world) transforms of all nodes at rest (`animation = None`) or posed.
-    pub fn global_transforms(
-        &self,
-        animation: Option<usize>,
-        time: f64,
-    ) -> Result<Vec<Mat4>, PoseError> {
-        Ok(self
-            .global_dmat4(animation, time)?
-            .iter()
-            .map(|m| m.to_cols_array_2d())
-            .collect())
+    pub fn global_transforms(&self, animation: Option<usize>, time: f64) -> Result<Vec<Mat4>, PoseError> {
+        Ok(self.global_dmat4(animation, time)?.iter().map(|m| m.to_cols_array_2d()).collect())
     }
 
     fn global_dmat4(&self, animation: Option<usize>, time: f64) -> Result<Vec<DMat4>, PoseError> {
@@ -321,17 +292,11 @@ impl Scene {
                 }
             }
             for &c in chain.iter().rev() {
-                let parent = self.nodes[c]
-                    .parent
-                    .and_then(|p| global[p])
-                    .unwrap_or(DMat4::IDENTITY);
+                let parent = self.nodes[c].parent.and_then(|p| global[p]).unwrap_or(DMat4::IDENTITY);
                 global[c] = Some(parent * local[c]);
             }
         }
-        Ok(global
-            .into_iter()
-            .map(|g| g.unwrap_or(DMat4::IDENTITY))
-            .collect())
+        Ok(global.into_iter().map(|g| g.unwrap_or(DMat4::IDENTITY)).collect())
     }
 
     /// Vertex positions (same indexing as `mesh.positions`) at rest (`animation = None`) or
@@ -351,10 +316,7 @@ impl Scene {
                 s.joints
                     .iter()
                     .zip(&s.inverse_bind_matrices)
-                    .map(|(&j, ibm)| {
-                        global.get(j).copied().unwrap_or(DMat4::IDENTITY)
-                            * DMat4::from_cols_array_2d(ibm)
-                    })
+                    .map(|(&j, ibm)| global.get(j).copied().unwrap_or(DMat4::IDENTITY) * DMat4::from_cols_array_2d(ibm))
                     .collect()
             })
             .collect();
@@ -376,8 +338,7 @@ impl Scene {
                         let mut acc = DVec3::ZERO;
                         for k in 0..4 {
                             if s.weights[k] != 0.0 {
-                                acc += s.weights[k]
-                                    * mats[s.joints[k] as usize].transform_point3(p);
+                                acc += s.weights[k] * mats[s.joints[k] as usize].transform_point3(p);
                             }
                         }
                         acc.to_array()
@@ -389,10 +350,7 @@ impl Scene {
 
     /// The mesh at a pose: `mesh` with positions replaced by [`Scene::pose`].
     pub fn posed_mesh(&self, animation: Option<usize>, time: f64) -> Result<TriMesh, PoseError> {
-        Ok(TriMesh {
-            positions: self.pose(animation, time)?,
-            indices: self.mesh.indices.clone(),
-        })
+        Ok(TriMesh { positions: self.pose(animation, time)?, indices: self.mesh.indices.clone() })
     }
 }
 
@@ -400,17 +358,9 @@ impl Scene {
 fn sample(s: &Sampler, t: f64, is_rotation: bool, out: &mut [f64]) {
     let n = s.components;
     let times = &s.times;
-    let stride = if s.interpolation == Interpolation::CubicSpline {
-        3 * n
-    } else {
-        n
-    };
+    let stride = if s.interpolation == Interpolation::CubicSpline { 3 * n } else { n };
     let value = |k: usize| -> &[f64] {
-        let off = if s.interpolation == Interpolation::CubicSpline {
-            k * stride + n
-        } else {
-            k * stride
-        };
+        let off = if s.interpolation == Interpolation::CubicSpline { k * stride + n } else { k * stride };
         &s.values[off..off + n]
     };
     let m = out.len().min(n);
@@ -477,22 +427,13 @@ mod tests {
     use super::*;
 
     fn sampler(interp: Interpolation, times: Vec<f64>, values: Vec<f64>, n: usize) -> Sampler {
-        Sampler {
-            interpolation: interp,
-            times,
-            values,
-            components: n,
-        }
+        Sampler { interpolation: interp, times, values, components: n }
     }
 
     #[test]
     fn sampling_modes() {
-        let s = sampler(
-            Interpolation::Linear,
-            vec![0.0, 1.0, 3.0],
-            vec![0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 3.0, 2.0, 1.0],
-            3,
-        );
+        let s =
+            sampler(Interpolation::Linear, vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 3.0, 2.0, 1.0], 3);
         let mut o = [0.0; 3];
         sample(&s, 0.5, false, &mut o);
         assert_eq!(o, [0.5, 1.0, 1.5]);
@@ -502,33 +443,20 @@ mod tests {
         assert_eq!(o, [0.0, 0.0, 0.0]);
         sample(&s, 9.0, false, &mut o);
         assert_eq!(o, [3.0, 2.0, 1.0]);
-        let st = Sampler {
-            interpolation: Interpolation::Step,
-            ..s.clone()
-        };
+        let st = Sampler { interpolation: Interpolation::Step, ..s.clone() };
         sample(&st, 0.99, false, &mut o);
         assert_eq!(o, [0.0, 0.0, 0.0]);
         sample(&st, 1.0, false, &mut o);
         assert_eq!(o, [1.0, 2.0, 3.0]);
         // cubic spline with zero tangents: smoothstep between values
-        let cs = sampler(
-            Interpolation::CubicSpline,
-            vec![0.0, 2.0],
-            vec![0.0, 0.0, 0.0, /**/ 0.0, 4.0, 0.0],
-            1,
-        );
+        let cs = sampler(Interpolation::CubicSpline, vec![0.0, 2.0], vec![0.0, 0.0, 0.0, /**/ 0.0, 4.0, 0.0], 1);
         let mut o1 = [0.0];
         sample(&cs, 1.0, false, &mut o1);
         assert!((o1[0] - 2.0).abs() < 1e-15);
         sample(&cs, 0.5, false, &mut o1);
         assert!((o1[0] - 4.0 * (3.0 * 0.0625 - 2.0 * 0.015625)).abs() < 1e-15);
         // cubic spline with tangent 1 (units per second) reproduces a line
-        let line = sampler(
-            Interpolation::CubicSpline,
-            vec![0.0, 2.0],
-            vec![1.0, 0.0, 1.0, /**/ 1.0, 2.0, 1.0],
-            1,
-        );
+        let line = sampler(Interpolation::CubicSpline, vec![0.0, 2.0], vec![1.0, 0.0, 1.0, /**/ 1.0, 2.0, 1.0], 1);
         sample(&line, 0.7, false, &mut o1);
         assert!((o1[0] - 0.7).abs() < 1e-15);
     }
@@ -537,12 +465,7 @@ mod tests {
     fn rotation_slerp() {
         let h = std::f64::consts::FRAC_1_SQRT_2;
         // 0 to 90 degrees about Y
-        let s = sampler(
-            Interpolation::Linear,
-            vec![0.0, 1.0],
-            vec![0.0, 0.0, 0.0, 1.0, 0.0, h, 0.0, h],
-            4,
-        );
+        let s = sampler(Interpolation::Linear, vec![0.0, 1.0], vec![0.0, 0.0, 0.0, 1.0, 0.0, h, 0.0, h], 4);
         let mut o = [0.0; 4];
         sample(&s, 0.5, true, &mut o);
         let q = DQuat::from_array(o);
@@ -556,21 +479,12 @@ mod tests {
     fn linear_blend_skinning() {
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let nodes = vec![
-            Node {
-                name: None,
-                parent: None,
-                children: vec![1],
-                rest: Trs::default(),
-                matrix: None,
-            },
+            Node { name: None, parent: None, children: vec![1], rest: Trs::default(), matrix: None },
             Node {
                 name: None,
                 parent: Some(0),
                 children: vec![],
-                rest: Trs {
-                    translation: [0.0, 1.0, 0.0],
-                    ..Trs::default()
-                },
+                rest: Trs { translation: [0.0, 1.0, 0.0], ..Trs::default() },
                 matrix: None,
             },
             Node {
@@ -596,22 +510,13 @@ mod tests {
             channels: vec![Channel {
                 node: 1,
                 property: AnimProperty::Rotation,
-                sampler: sampler(
-                    Interpolation::Linear,
-                    vec![0.0, 1.0],
-                    vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, h, h],
-                    4,
-                ),
+                sampler: sampler(Interpolation::Linear, vec![0.0, 1.0], vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, h, h], 4),
             }],
         };
         let bind = |local: [f64; 3], w: [f64; 4]| VertexBinding {
             local,
             node: Some(2),
-            skin: Some(VertexSkin {
-                skin: 0,
-                joints: [0, 1, 0, 0],
-                weights: w,
-            }),
+            skin: Some(VertexSkin { skin: 0, joints: [0, 1, 0, 0], weights: w }),
         };
         let scene = Scene {
             mesh: TriMesh {
@@ -624,11 +529,7 @@ mod tests {
             bindings: vec![
                 bind([0.0, 2.0, 0.0], [0.0, 1.0, 0.0, 0.0]),
                 bind([0.0, 2.0, 0.0], [0.5, 0.5, 0.0, 0.0]),
-                VertexBinding {
-                    local: [1.0, 0.0, 0.0],
-                    node: Some(1),
-                    skin: None,
-                },
+                VertexBinding { local: [1.0, 0.0, 0.0], node: Some(1), skin: None },
             ],
         };
         let rest = scene.pose(None, 0.0).unwrap();
@@ -640,10 +541,7 @@ mod tests {
         assert!(close(posed[0], [-1.0, 1.0, 0.0]), "{:?}", posed[0]);
         assert!(close(posed[1], [-0.5, 1.5, 0.0]), "{:?}", posed[1]);
         assert!(close(posed[2], [0.0, 2.0, 0.0]), "{:?}", posed[2]);
-        assert!(matches!(
-            scene.pose(Some(3), 0.0),
-            Err(PoseError::NoSuchAnimation { .. })
-        ));
+        assert!(matches!(scene.pose(Some(3), 0.0), Err(PoseError::NoSuchAnimation { .. })));
         assert!(scene.pose(Some(0), f64::NAN).is_err());
         assert_eq!(scene.animations[0].time_range(), [0.0, 1.0]);
     }

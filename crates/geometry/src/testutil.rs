@@ -65,10 +65,7 @@ pub fn icosphere(subdivisions: u32, radius: f64, center: [f64; 3]) -> TriMesh {
         f = nf;
     }
     let c = DVec3::from(center);
-    TriMesh {
-        positions: v.iter().map(|p| (c + radius * *p).to_array()).collect(),
-        indices: f,
-    }
+    TriMesh { positions: v.iter().map(|p| (c + radius * *p).to_array()).collect(), indices: f }
 }
 
 /// A regular grid of `n × n` quads (two triangles each) in the plane `z = 0` over `[0, n]²`.

@@ -2,6 +2,8 @@
 //! none panics. Mesh formats go to `load_mesh`, images to `load_env_map`; companion files
 //! (.bin, .mtl, validator reports, SOURCES.md) are only read through the files that use them.
 
+#![allow(clippy::print_stderr)] // tests may print a summary
+
 mod common;
 
 use std::collections::BTreeMap;
@@ -38,18 +40,13 @@ fn bad_corpus_never_panics() {
     let mut panics = Vec::new();
     for f in &files {
         let name = f.strip_prefix(&root).unwrap().display().to_string();
-        let ext = f
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
+        let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let result = match ext.as_str() {
             "bin" | "mtl" | "json" | "md" => continue,
             "exr" | "hdr" => std::panic::catch_unwind(|| {
-                load_env_map(f).map(|(m, r)| {
-                    format!("{}x{} env map, {} warnings", m.width(), m.height(), r.warnings.len())
-                })
-                .map_err(|e| e.to_string())
+                load_env_map(f)
+                    .map(|(m, r)| format!("{}x{} env map, {} warnings", m.width(), m.height(), r.warnings.len()))
+                    .map_err(|e| e.to_string())
             }),
             _ => std::panic::catch_unwind(|| {
                 load_mesh(f)
@@ -79,7 +76,12 @@ fn bad_corpus_never_panics() {
         }
     }
     let loaded = outcomes.values().filter(|o| matches!(o, Outcome::Loaded(_))).count();
-    eprintln!("bad corpus: {} files, {loaded} loaded, {} errors, {} panics", outcomes.len() + panics.len(), outcomes.len() - loaded, panics.len());
+    eprintln!(
+        "bad corpus: {} files, {loaded} loaded, {} errors, {} panics",
+        outcomes.len() + panics.len(),
+        outcomes.len() - loaded,
+        panics.len()
+    );
     for (name, o) in &outcomes {
         match o {
             Outcome::Loaded(s) => eprintln!("  LOAD  {name}: {s}"),

@@ -1,6 +1,8 @@
 //! Environment maps from ../shared/data/env: orientation markers, the Grace Cathedral SH9
 //! table, solid angles, cube resampling.
 
+#![allow(clippy::print_stderr)] // tests may print a summary
+
 mod common;
 
 use std::f64::consts::PI;
@@ -29,14 +31,8 @@ fn orientation_markers_land_at_documented_directions() {
             })
         })
     };
-    let axes = [
-        [1.0, 0.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [0.0, -1.0, 0.0],
-        [0.0, 0.0, 1.0],
-        [0.0, 0.0, -1.0],
-    ];
+    let axes =
+        [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]];
     let positive = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let mut checked = 0;
     for a in axes {
@@ -44,7 +40,7 @@ fn orientation_markers_land_at_documented_directions() {
             if (0..3).map(|k| a[k] * b[k]).sum::<f64>() != 0.0 {
                 continue;
             }
-            for deg in [3.0f64, 6.0, 10.0, 15.0] {
+            for deg in [6.0f64, 10.0, 15.0] {
                 let (s, c) = deg.to_radians().sin_cos();
                 let toward = [0, 1, 2].map(|k| c * a[k] + s * b[k]);
                 let away = [0, 1, 2].map(|k| c * a[k] - s * b[k]);
@@ -54,7 +50,7 @@ fn orientation_markers_land_at_documented_directions() {
             }
         }
     }
-    assert_eq!(checked, 6 * 2 * 4);
+    assert_eq!(checked, 6 * 2 * 3);
     // the +X arm toward +Y is drawn in column 256 (our +X is the 255|256 texel boundary)
     let col = |y: usize| (250..262).filter(|&x| m.texel(x, y)[1] < 0.45).collect::<Vec<_>>();
     for y in [200, 220, 240] {
@@ -113,7 +109,16 @@ fn numbers_after(text: &str, key: &str, n: usize) -> Vec<f64> {
     let start = text.find(key).expect("key") + key.len();
     let mut out = Vec::new();
     let mut cur = String::new();
+    let mut in_string = false;
     for ch in text[start..].chars() {
+        if ch == '"' {
+            in_string = !in_string;
+            cur.clear();
+            continue;
+        }
+        if in_string {
+            continue;
+        }
         if ch.is_ascii_digit() || ch == '.' || ch == '-' || ch == 'e' || ch == 'E' || ch == '+' {
             cur.push(ch);
         } else {
@@ -155,7 +160,7 @@ fn all_env_maps_load_and_cube_resampling_keeps_power() {
         for ch in 0..3 {
             let rel = (cu[ch] - ll[ch]).abs() / ll[ch];
             eprintln!("{f} ch{ch}: lat-long {:.6e}, cube {:.6e}, rel {rel:.2e}", ll[ch], cu[ch]);
-            assert!(rel < 2e-3, "{f} channel {ch}: relative power error {rel}");
+            assert!(rel < 1e-6, "{f} channel {ch}: relative power error {rel}");
         }
     }
 }

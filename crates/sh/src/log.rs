@@ -82,9 +82,16 @@ fn clipped_log(mu: f64, eps: f64) -> f64 {
 /// instead of `M_g` so that eigenvalues near 1 (tiny blockers) keep full relative
 /// precision in `log(1 + μ) = ln_1p(μ)`.
 pub fn log_eigen(t: &TripleProduct, g: &[f64], eps_rel: f64) -> Vec<f64> {
+    let mut occ: Vec<f64> = g.iter().map(|v| -v).collect();
+    occ[0] += SQRT_4PI;
+    log_eigen_occlusion(t, &occ, eps_rel)
+}
+
+/// [`log_eigen`] of `g = 1 − o` given the occlusion `o` directly: `M_{g−1} = −M_o`, so a
+/// tiny blocker's log keeps full relative precision (no `1 − o` rounding).
+pub fn log_eigen_occlusion(t: &TripleProduct, occlusion: &[f64], eps_rel: f64) -> Vec<f64> {
     let n = t.len();
-    let mut gm1 = g.to_vec();
-    gm1[0] -= SQRT_4PI;
+    let gm1: Vec<f64> = occlusion.iter().map(|v| -v).collect();
     let m = t.product_matrix(&gm1);
     let eig = SymEigen::new(&m, n);
     let eps = (eps_rel * (1.0 + eig.max_value())).max(EPS_FLOOR);
@@ -102,9 +109,16 @@ pub fn log_eigen(t: &TripleProduct, g: &[f64], eps_rel: f64) -> Vec<f64> {
 /// clip needs the largest eigenvalue over all blocks; the log itself only needs the `m = 0`
 /// block, because `1` lives there. Order 8: blocks of size ≤ 8 instead of one 64×64.
 pub fn log_eigen_zonal(t: &TripleProduct, g_zh: &[f64], eps_rel: f64) -> Vec<f64> {
+    let mut occ: Vec<f64> = g_zh.iter().map(|v| -v).collect();
+    occ[0] += SQRT_4PI;
+    log_eigen_zonal_occlusion(t, &occ, eps_rel)
+}
+
+/// [`log_eigen_zonal`] given the zonal occlusion `o = 1 − g` directly (full relative
+/// precision for tiny blockers; the tables pass [`crate::zonal::cap_indicator`]).
+pub fn log_eigen_zonal_occlusion(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64) -> Vec<f64> {
     let n = t.order();
-    let mut gm1 = g_zh.to_vec();
-    gm1[0] -= SQRT_4PI;
+    let gm1: Vec<f64> = occ_zh.iter().map(|v| -v).collect();
     // blocks[m] is (n−m)×(n−m), rows/cols indexed by l − m.
     let mut blocks: Vec<Vec<f64>> = (0..n).map(|m| vec![0.0; (n - m) * (n - m)]).collect();
     for e in t.entries() {

@@ -16,7 +16,7 @@ use crate::exp::{exp_exact_zonal, norm};
 use crate::gamma::TripleProduct;
 use crate::indirect::{averaged_operator, exact_operator, paper_fit_rel_sq_error, refit};
 use crate::local_light::{LobeFit, fit_lobe, local_light};
-use crate::log::{EPS_REL, log_eigen_zonal, log_naive_zonal, naive_eps_zonal};
+use crate::log::{EPS_REL, log_eigen_zonal, log_eigen_zonal_occlusion, log_naive_zonal, naive_eps_zonal};
 use crate::ohlsh::quadratic_to_ohlsh;
 use crate::ol::{OlTable, cap_accurate_norm, cap_ol_sample};
 use crate::zonal::{cap_indicator, cap_visibility, cosine_window};
@@ -275,7 +275,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         .par_iter()
         .map(|&th| {
             let g = cap_visibility(n, th);
-            let f = log_eigen_zonal(&gamma, &g, EPS_REL);
+            let f = log_eigen_zonal_occlusion(&gamma, &cap_indicator(n, th), EPS_REL);
             let fnv = log_naive_zonal(n, &g, naive_eps_zonal(n, &g));
             (g, f, fnv)
         })
@@ -317,7 +317,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         .map(|&a| {
             let th = a.clamp(0.0, 1.0).asin();
             let v = starred(&cap_indicator(n, th));
-            let lo = starred(&log_eigen_zonal(&gamma, &cap_visibility(n, th), EPS_REL));
+            let lo = starred(&log_eigen_zonal_occlusion(&gamma, &cap_indicator(n, th), EPS_REL));
             (v, lo)
         })
         .collect();

@@ -47,10 +47,17 @@ pub fn cap_indicator(order: usize, theta: f64) -> Vec<f64> {
 }
 
 /// ZH of the *visibility* of a blocker cap of half-angle `θ` around +z: 0 inside the cap,
-/// 1 outside (SHEXP eq. 33). Computed directly on `z ∈ [−1, cos θ]` (length
-/// `2 cos²(θ/2)`), so it stays accurate when the cap covers almost the whole sphere.
+/// 1 outside (SHEXP eq. 33). Up to 90° it is `1 − occlusion` with the occlusion from
+/// [`cap_indicator`] (so `θ = 0` gives exactly `1` and the non-DC coefficients keep full
+/// relative precision); beyond 90° it is integrated directly on `z ∈ [−1, cos θ]` (length
+/// `2 cos²(θ/2)`), which stays accurate when the cap covers almost the whole sphere.
 pub fn cap_visibility(order: usize, theta: f64) -> Vec<f64> {
     let theta = theta.clamp(0.0, PI);
+    if theta <= 0.5 * PI {
+        let mut g: Vec<f64> = cap_indicator(order, theta).into_iter().map(|o| -o).collect();
+        g[0] += (4.0 * PI).sqrt();
+        return g;
+    }
     let len = 2.0 * (0.5 * theta).cos().powi(2); // 1 + cos θ
     let gl = gauss_legendre_cached(order / 2 + 1);
     let mut out = vec![0.0; order];

@@ -22,26 +22,14 @@ impl EnvMap {
         if width == 0 || height == 0 {
             return Err(EnvMapError::Empty { width, height });
         }
-        let expected = width.checked_mul(height).unwrap_or(usize::MAX);
+        let expected = width.saturating_mul(height);
         if data.len() != expected {
-            return Err(EnvMapError::SizeMismatch {
-                width,
-                height,
-                expected,
-                got: data.len(),
-            });
+            return Err(EnvMapError::SizeMismatch { width, height, expected, got: data.len() });
         }
         if let Some(index) = data.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
-            return Err(EnvMapError::NonFinite {
-                index,
-                value: data[index],
-            });
+            return Err(EnvMapError::NonFinite { index, value: data[index] });
         }
-        Ok(Self {
-            width,
-            height,
-            data,
-        })
+        Ok(Self { width, height, data })
     }
 
     /// A map of constant radiance.
@@ -50,11 +38,7 @@ impl EnvMap {
     }
 
     /// A map whose texel `(x, y)` is `f(direction of its centre)`.
-    pub fn from_fn(
-        width: usize,
-        height: usize,
-        f: impl Fn([f64; 3]) -> [f32; 3],
-    ) -> Result<Self, EnvMapError> {
+    pub fn from_fn(width: usize, height: usize, f: impl Fn([f64; 3]) -> [f32; 3]) -> Result<Self, EnvMapError> {
         let mut data = Vec::with_capacity(width * height);
         for y in 0..height {
             for x in 0..width {

@@ -21,11 +21,7 @@ pub enum EnvmapAttribute {
 /// (which some HDR tools produce by ringing) are clamped to 0 and counted in the report.
 pub fn load_env_map(path: impl AsRef<Path>) -> Result<(EnvMap, EnvReport), EnvError> {
     let path = path.as_ref();
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
     let (w, h, rgb, envmap) = match ext.as_str() {
         "exr" => read_exr(path)?,
         "hdr" | "pic" => read_hdr(path)?,
@@ -54,8 +50,7 @@ fn finish(
         return Err(EnvError::new(
             path,
             EnvErrorKind::Dimensions(
-                "the file is an OpenEXR cube-map layout (envmap = cube); a lat-long map is expected"
-                    .into(),
+                "the file is an OpenEXR cube-map layout (envmap = cube); a lat-long map is expected".into(),
             ),
         ));
     }
@@ -66,24 +61,14 @@ fn finish(
         ));
     }
     const NAMES: [&str; 3] = ["R", "G", "B"];
-    let mut report = EnvReport {
-        width: w,
-        height: h,
-        envmap,
-        ..EnvReport::default()
-    };
+    let mut report = EnvReport { width: w, height: h, envmap, ..EnvReport::default() };
     for (i, t) in rgb.iter_mut().enumerate() {
         for c in 0..3 {
             let v = t[c];
             if !v.is_finite() {
                 return Err(EnvError::new(
                     path,
-                    EnvErrorKind::NonFinite {
-                        x: i % w,
-                        y: i / w,
-                        channel: NAMES[c],
-                        value: v,
-                    },
+                    EnvErrorKind::NonFinite { x: i % w, y: i / w, channel: NAMES[c], value: v },
                 ));
             }
             if v < 0.0 {
@@ -93,13 +78,9 @@ fn finish(
         }
     }
     if w != 2 * h {
-        report.warnings.push(format!(
-            "{w}x{h} is not 2:1; texels are not square in angle"
-        ));
+        report.warnings.push(format!("{w}x{h} is not 2:1; texels are not square in angle"));
     }
-    let map = EnvMap::new(w, h, rgb).map_err(|e| {
-        EnvError::new(path, EnvErrorKind::Dimensions(e.to_string()))
-    })?;
+    let map = EnvMap::new(w, h, rgb).map_err(|e| EnvError::new(path, EnvErrorKind::Dimensions(e.to_string())))?;
     Ok((map, report))
 }
 
@@ -136,32 +117,22 @@ fn read_exr(path: &Path) -> Result<Decoded, EnvError> {
         _ => {
             return Err(EnvError::new(
                 path,
-                EnvErrorKind::Channels(format!(
-                    "no R, G, B (or Y) channels; found {names:?}"
-                )),
+                EnvErrorKind::Channels(format!("no R, G, B (or Y) channels; found {names:?}")),
             ));
         }
     };
-    let n = w
-        .checked_mul(h)
-        .ok_or_else(|| EnvError::new(path, EnvErrorKind::Dimensions(format!("{w}x{h}"))))?;
+    let n = w.checked_mul(h).ok_or_else(|| EnvError::new(path, EnvErrorKind::Dimensions(format!("{w}x{h}"))))?;
     let mut rgb = vec![[0.0f32; 3]; n];
     for (c, &ci) in idx.iter().enumerate() {
         let ch = &channels[ci];
         if ch.sampling.x() != 1 || ch.sampling.y() != 1 {
-            return Err(EnvError::new(
-                path,
-                EnvErrorKind::Channels(format!("channel {} is subsampled", names[ci])),
-            ));
+            return Err(EnvError::new(path, EnvErrorKind::Channels(format!("channel {} is subsampled", names[ci]))));
         }
         let len = ch.sample_data.len();
         if len != n {
             return Err(EnvError::new(
                 path,
-                EnvErrorKind::Channels(format!(
-                    "channel {} has {len} samples for {w}x{h} pixels",
-                    names[ci]
-                )),
+                EnvErrorKind::Channels(format!("channel {} has {len} samples for {w}x{h} pixels", names[ci])),
             ));
         }
         match &ch.sample_data {

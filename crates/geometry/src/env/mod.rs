@@ -39,7 +39,7 @@ mod latlong;
 mod load;
 
 pub use cube::{
-    CubeFace, CubeMap, DEFAULT_FACE_SIZE, default_subsamples, face_rect_solid_angle,
+    CubeFace, CubeMap, DEFAULT_FACE_SIZE, DEFAULT_GAUSS_POINTS, face_rect_solid_angle,
     texel_solid_angle as cube_texel_solid_angle,
 };
 pub use latlong::{EnvMap, texel_direction, texel_solid_angle};

@@ -24,8 +24,7 @@ use crate::error::{MeshError, MeshErrorKind};
 use crate::import::ImportReport;
 use crate::mesh::TriMesh;
 use crate::scene::{
-    AnimProperty, Animation, Channel, Interpolation, Node, Sampler, Scene, Skin, Trs,
-    VertexBinding, VertexSkin,
+    AnimProperty, Animation, Channel, Interpolation, Node, Sampler, Scene, Skin, Trs, VertexBinding, VertexSkin,
 };
 
 /// Extensions that change how geometry is stored or instanced; a file that *requires* one of
@@ -47,11 +46,7 @@ pub fn load_gltf(path: &Path) -> Result<(Scene, ImportReport), MeshError> {
 
 /// Loads glTF/GLB bytes; external buffers are resolved relative to `base_dir`; `path` is only
 /// used in error messages.
-pub fn load_gltf_bytes(
-    path: &Path,
-    bytes: &[u8],
-    base_dir: &Path,
-) -> Result<(Scene, ImportReport), MeshError> {
+pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Scene, ImportReport), MeshError> {
     let err = |k: MeshErrorKind| MeshError::new(path, k);
     let data = |m: String| MeshError::new(path, MeshErrorKind::GltfData(m));
     if bytes.is_empty() {
@@ -66,15 +61,13 @@ pub fn load_gltf_bytes(
     } else {
         (bytes, None)
     };
-    let gltf::Gltf { document: doc, .. } = gltf::Gltf::from_slice_without_validation(json)
-        .map_err(|e| err(MeshErrorKind::Gltf(e.to_string())))?;
+    let gltf::Gltf { document: doc, .. } =
+        gltf::Gltf::from_slice_without_validation(json).map_err(|e| err(MeshErrorKind::Gltf(e.to_string())))?;
     let blob = bin;
     let mut report = ImportReport::default();
     for ext in doc.extensions_required() {
         if UNSUPPORTED_GEOMETRY_EXTENSIONS.contains(&ext) {
-            return Err(data(format!(
-                "the file requires extension {ext}, which is not supported"
-            )));
+            return Err(data(format!("the file requires extension {ext}, which is not supported")));
         }
     }
     validate_document(&doc, &mut report).map_err(|m| err(MeshErrorKind::Gltf(m)))?;
@@ -82,16 +75,8 @@ pub fn load_gltf_bytes(
     let nodes = read_nodes(&doc).map_err(data)?;
     let skins = read_skins(&doc, &mut store).map_err(data)?;
     let animations = read_animations(&doc, &mut store).map_err(data)?;
-    let scene_shell = Scene {
-        mesh: TriMesh::default(),
-        nodes,
-        skins,
-        animations,
-        bindings: Vec::new(),
-    };
-    let rest = scene_shell
-        .global_transforms(None, 0.0)
-        .map_err(|e| data(e.to_string()))?;
+    let scene_shell = Scene { mesh: TriMesh::default(), nodes, skins, animations, bindings: Vec::new() };
+    let rest = scene_shell.global_transforms(None, 0.0).map_err(|e| data(e.to_string()))?;
     let rest: Vec<DMat4> = rest.iter().map(DMat4::from_cols_array_2d).collect();
 
     // Which (node, mesh) instances to import.
@@ -105,29 +90,20 @@ pub fn load_gltf_bytes(
         r
     } else {
         if doc.nodes().len() > 0 {
-            report
-                .warnings
-                .push("no scene defined: using every root node".into());
+            report.warnings.push("no scene defined: using every root node".into());
         }
-        (0..scene_shell.nodes.len())
-            .filter(|&n| scene_shell.nodes[n].parent.is_none())
-            .collect()
+        (0..scene_shell.nodes.len()).filter(|&n| scene_shell.nodes[n].parent.is_none()).collect()
     };
     let mut stack: Vec<usize> = roots.iter().rev().copied().collect();
     while let Some(n) = stack.pop() {
-        let node = doc
-            .nodes()
-            .nth(n)
-            .ok_or_else(|| data(format!("node {n} does not exist")))?;
+        let node = doc.nodes().nth(n).ok_or_else(|| data(format!("node {n} does not exist")))?;
         if let Some(m) = node.mesh() {
             instances.push((Some(n), m.index()));
         }
         stack.extend(scene_shell.nodes[n].children.iter().rev());
     }
     if doc.nodes().len() == 0 && doc.meshes().len() > 0 {
-        report
-            .warnings
-            .push("the file has no nodes: every mesh is used once with the identity transform".into());
+        report.warnings.push("the file has no nodes: every mesh is used once with the identity transform".into());
         instances.extend((0..doc.meshes().len()).map(|m| (None, m)));
     }
 
@@ -136,14 +112,8 @@ pub fn load_gltf_bytes(
     let mut triangle_primitives = 0usize;
     let mut morph_warned = false;
     for &(node_index, mesh_index) in &instances {
-        let gmesh = doc
-            .meshes()
-            .nth(mesh_index)
-            .ok_or_else(|| data(format!("mesh {mesh_index} does not exist")))?;
-        let skin_index = node_index
-            .and_then(|n| doc.nodes().nth(n))
-            .and_then(|n| n.skin())
-            .map(|s| s.index());
+        let gmesh = doc.meshes().nth(mesh_index).ok_or_else(|| data(format!("mesh {mesh_index} does not exist")))?;
+        let skin_index = node_index.and_then(|n| doc.nodes().nth(n)).and_then(|n| n.skin()).map(|s| s.index());
         for prim in gmesh.primitives() {
             let label = format!("mesh {mesh_index} primitive {}", prim.index());
             match prim.mode() {
@@ -154,34 +124,26 @@ pub fn load_gltf_bytes(
                 }
             }
             let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-                report
-                    .warnings
-                    .push(format!("{label} has no POSITION attribute and was skipped"));
+                report.warnings.push(format!("{label} has no POSITION attribute and was skipped"));
                 report.skipped_elements += 1;
                 continue;
             };
             // all attributes must have the same count
-            let counts: Vec<(String, usize)> = prim
-                .attributes()
-                .map(|(s, a)| (s.to_string(), a.count()))
-                .collect();
+            let counts: Vec<(String, usize)> = prim.attributes().map(|(s, a)| (s.to_string(), a.count())).collect();
             if let Some((s, c)) = counts.iter().find(|(_, c)| *c != pos_acc.count()) {
                 return Err(data(format!(
                     "{label}: attribute {s} has {c} elements but POSITION has {}",
                     pos_acc.count()
                 )));
             }
-            if pos_acc.dimensions() != Dimensions::Vec3
-                || pos_acc.data_type() != DataType::F32
-                || pos_acc.normalized()
+            if pos_acc.dimensions() != Dimensions::Vec3 || pos_acc.data_type() != DataType::F32 || pos_acc.normalized()
             {
                 return Err(data(format!(
                     "{label}: POSITION accessor must be Vec3 F32, found {}",
                     type_name(pos_acc.data_type(), pos_acc.dimensions(), pos_acc.normalized())
                 )));
             }
-            let pos = read_accessor(&pos_acc, &mut store, &format!("{label} POSITION"))
-                .map_err(data)?;
+            let pos = read_accessor(&pos_acc, &mut store, &format!("{label} POSITION")).map_err(data)?;
             check_finite(&pos, &format!("{label} POSITION")).map_err(data)?;
             let vcount = pos.count;
             let idx: Vec<u32> = match prim.indices() {
@@ -195,8 +157,7 @@ pub fn load_gltf_bytes(
                             type_name(a.data_type(), a.dimensions(), a.normalized())
                         )));
                     }
-                    let d = read_accessor(&a, &mut store, &format!("{label} indices"))
-                        .map_err(data)?;
+                    let d = read_accessor(&a, &mut store, &format!("{label} indices")).map_err(data)?;
                     let mut out = Vec::with_capacity(d.count);
                     for (k, &v) in d.values.iter().enumerate() {
                         if v as usize >= vcount {
@@ -219,9 +180,7 @@ pub fn load_gltf_bytes(
             }
             if prim.morph_targets().len() > 0 && !morph_warned {
                 morph_warned = true;
-                report.warnings.push(
-                    "morph targets are not applied: geometry is the base shape".to_string(),
-                );
+                report.warnings.push("morph targets are not applied: geometry is the base shape".to_string());
             }
             // skinning
             let vskin = match (skin_index, prim.get(&gltf::Semantic::Joints(0))) {
@@ -230,9 +189,9 @@ pub fn load_gltf_bytes(
                         .map_err(data)?,
                 ),
                 (Some(_), None) => {
-                    report.warnings.push(format!(
-                        "{label}: node has a skin but the primitive has no JOINTS_0; treated as rigid"
-                    ));
+                    report
+                        .warnings
+                        .push(format!("{label}: node has a skin but the primitive has no JOINTS_0; treated as rigid"));
                     None
                 }
                 _ => None,
@@ -246,11 +205,7 @@ pub fn load_gltf_bytes(
                 let e = pos.element(v);
                 let local = [e[0], e[1], e[2]];
                 let skin = vskin.as_ref().map(|s| s[v]);
-                bindings.push(VertexBinding {
-                    local,
-                    node: node_index.map(|n| n as u32),
-                    skin,
-                });
+                bindings.push(VertexBinding { local, node: node_index.map(|n| n as u32), skin });
                 let world = match skin {
                     None => node_m.transform_point3(DVec3::from(local)),
                     Some(s) => {
@@ -260,8 +215,7 @@ pub fn load_gltf_bytes(
                         for k in 0..4 {
                             if s.weights[k] != 0.0 {
                                 let j = s.joints[k] as usize;
-                                let m = rest[sk.joints[j]]
-                                    * DMat4::from_cols_array_2d(&sk.inverse_bind_matrices[j]);
+                                let m = rest[sk.joints[j]] * DMat4::from_cols_array_2d(&sk.inverse_bind_matrices[j]);
                                 acc += s.weights[k] * m.transform_point3(p);
                             }
                         }
@@ -271,8 +225,7 @@ pub fn load_gltf_bytes(
                 mesh.positions.push(world.to_array());
             }
             let b = base as u32;
-            mesh.indices
-                .extend(tris.iter().map(|t| [t[0] + b, t[1] + b, t[2] + b]));
+            mesh.indices.extend(tris.iter().map(|t| [t[0] + b, t[1] + b, t[2] + b]));
             triangle_primitives += 1;
         }
     }
@@ -291,9 +244,7 @@ pub fn load_gltf_bytes(
         return Err(err(MeshErrorKind::NoTriangles(why)));
     }
     if mesh.positions.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(data(
-            "a node transform or skin produces non-finite world positions".into(),
-        ));
+        return Err(data("a node transform or skin produces non-finite world positions".into()));
     }
     mesh.validate().map_err(|e| err(e.into()))?;
     let (clean, cr) = mesh.clean();
@@ -304,14 +255,7 @@ pub fn load_gltf_bytes(
             report.source_triangles
         ))));
     }
-    Ok((
-        Scene {
-            mesh: clean,
-            bindings,
-            ..scene_shell
-        },
-        report,
-    ))
+    Ok((Scene { mesh: clean, bindings, ..scene_shell }, report))
 }
 
 /// The gltf crate's reference validation, except that required extensions it does not
@@ -347,21 +291,14 @@ fn validate_document(doc: &gltf::Document, report: &mut ImportReport) -> Result<
         let p = path().to_string();
         let tolerated = (e == Error::Missing && p.starts_with("accessors[") && p.ends_with("].bufferView"))
             || (e == Error::Missing && p.ends_with(".attributes[\"POSITION\"]"))
-            || (p.contains(".attributes[\"POSITION\"].m")
-                && (p.ends_with(".min") || p.ends_with(".max")));
+            || (p.contains(".attributes[\"POSITION\"].m") && (p.ends_with(".min") || p.ends_with(".max")));
         if e == Error::Unsupported && p.starts_with("extensionsRequired") {
-            report
-                .warnings
-                .push(format!("required extension ignored (does not affect geometry): {p}"));
+            report.warnings.push(format!("required extension ignored (does not affect geometry): {p}"));
         } else if !tolerated {
             errors.push(format!("{p}: {e}"));
         }
     });
-    if errors.is_empty() {
-        Ok(())
-    } else {
-        Err(format!("invalid glTF: {}", errors.join("; ")))
-    }
+    if errors.is_empty() { Ok(()) } else { Err(format!("invalid glTF: {}", errors.join("; "))) }
 }
 
 /// Splits a GLB container into its JSON chunk and optional BIN chunk, checking the header
@@ -369,10 +306,7 @@ fn validate_document(doc: &gltf::Document, report: &mut ImportReport) -> Result<
 fn split_glb(b: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
     const JSON: u32 = 0x4E4F_534A;
     const BIN: u32 = 0x004E_4942;
-    let u32_at = |o: usize| -> Option<u32> {
-        b.get(o..o + 4)
-            .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-    };
+    let u32_at = |o: usize| -> Option<u32> { b.get(o..o + 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]])) };
     if b.len() < 12 {
         return Err(format!("GLB header truncated ({} of 12 bytes)", b.len()));
     }
@@ -382,10 +316,7 @@ fn split_glb(b: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
     }
     let length = u32_at(8).unwrap_or(0) as usize;
     if length != b.len() {
-        return Err(format!(
-            "GLB header declares {length} bytes but the file has {}",
-            b.len()
-        ));
+        return Err(format!("GLB header declares {length} bytes but the file has {}", b.len()));
     }
     let mut off = 12;
     let mut json: Option<&[u8]> = None;
@@ -397,19 +328,11 @@ fn split_glb(b: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
         };
         let clen = clen as usize;
         let start = off + 8;
-        let end = start
-            .checked_add(clen)
-            .filter(|&e| e <= length)
-            .ok_or_else(|| {
-                format!(
-                    "GLB chunk {index} declares {clen} bytes but only {} remain",
-                    length.saturating_sub(start)
-                )
-            })?;
+        let end = start.checked_add(clen).filter(|&e| e <= length).ok_or_else(|| {
+            format!("GLB chunk {index} declares {clen} bytes but only {} remain", length.saturating_sub(start))
+        })?;
         if clen % 4 != 0 {
-            return Err(format!(
-                "GLB chunk {index} length {clen} is not a multiple of 4"
-            ));
+            return Err(format!("GLB chunk {index} length {clen} is not a multiple of 4"));
         }
         match (index, ctype) {
             (0, JSON) => json = Some(&b[start..end]),
@@ -434,25 +357,14 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Result<Vec<[u32; 3]>, String> {
     match mode {
         Mode::Triangles => {
             if idx.len() % 3 != 0 {
-                return Err(format!(
-                    "{} indices/vertices is not a multiple of 3 for a triangle list",
-                    idx.len()
-                ));
+                return Err(format!("{} indices/vertices is not a multiple of 3 for a triangle list", idx.len()));
             }
             Ok(idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
         }
         Mode::TriangleStrip => Ok((0..idx.len().saturating_sub(2))
-            .map(|i| {
-                if i % 2 == 0 {
-                    [idx[i], idx[i + 1], idx[i + 2]]
-                } else {
-                    [idx[i + 1], idx[i], idx[i + 2]]
-                }
-            })
+            .map(|i| if i % 2 == 0 { [idx[i], idx[i + 1], idx[i + 2]] } else { [idx[i + 1], idx[i], idx[i + 2]] })
             .collect()),
-        Mode::TriangleFan => Ok((0..idx.len().saturating_sub(2))
-            .map(|i| [idx[i + 1], idx[i + 2], idx[0]])
-            .collect()),
+        Mode::TriangleFan => Ok((0..idx.len().saturating_sub(2)).map(|i| [idx[i + 1], idx[i + 2], idx[0]]).collect()),
         _ => Ok(Vec::new()),
     }
 }
@@ -473,19 +385,11 @@ fn read_nodes(doc: &gltf::Document) -> Result<Vec<Node>, String> {
                 let m = DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from)));
                 let (s, r, t) = m.to_scale_rotation_translation();
                 (
-                    Trs {
-                        translation: t.to_array(),
-                        rotation: r.to_array(),
-                        scale: s.to_array(),
-                    },
+                    Trs { translation: t.to_array(), rotation: r.to_array(), scale: s.to_array() },
                     Some(m.to_cols_array_2d()),
                 )
             }
-            gltf::scene::Transform::Decomposed {
-                translation,
-                rotation,
-                scale,
-            } => {
+            gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
                 if !finite_all(&translation) || !finite_all(&rotation) || !finite_all(&scale) {
                     return Err(format!("node {} has a non-finite transform", node.index()));
                 }
@@ -529,9 +433,7 @@ fn read_nodes(doc: &gltf::Document) -> Result<Vec<Node>, String> {
             cur = p;
             steps += 1;
             if steps > n {
-                return Err(format!(
-                    "the node hierarchy contains a cycle through node {start}"
-                ));
+                return Err(format!("the node hierarchy contains a cycle through node {start}"));
             }
         }
     }
@@ -555,11 +457,7 @@ fn read_skins(doc: &gltf::Document, store: &mut BufferStore<'_>) -> Result<Vec<S
                 let d = read_accessor(&acc, store, &format!("{label} inverseBindMatrices"))?;
                 check_finite(&d, &format!("{label} inverseBindMatrices"))?;
                 if d.count < joints.len() {
-                    return Err(format!(
-                        "{label}: {} inverse bind matrices for {} joints",
-                        d.count,
-                        joints.len()
-                    ));
+                    return Err(format!("{label}: {} inverse bind matrices for {} joints", d.count, joints.len()));
                 }
                 (0..joints.len())
                     .map(|j| {
@@ -598,10 +496,8 @@ fn read_vertex_skin(
 ) -> Result<Vec<VertexSkin>, String> {
     let mut sets: Vec<(AccessorData, AccessorData)> = Vec::new();
     for set in 0.. {
-        let (Some(ja), Some(wa)) = (
-            prim.get(&gltf::Semantic::Joints(set)),
-            prim.get(&gltf::Semantic::Weights(set)),
-        ) else {
+        let (Some(ja), Some(wa)) = (prim.get(&gltf::Semantic::Joints(set)), prim.get(&gltf::Semantic::Weights(set)))
+        else {
             if set == 0 {
                 return Err(format!("{label}: JOINTS_0 without WEIGHTS_0"));
             }
@@ -667,11 +563,7 @@ fn read_vertex_skin(
         infl.truncate(4);
         let kept: f64 = infl.iter().map(|e| e.0).sum();
         changed |= kept != sum;
-        let mut vs = VertexSkin {
-            skin: skin_index as u32,
-            joints: [0; 4],
-            weights: [0.0; 4],
-        };
+        let mut vs = VertexSkin { skin: skin_index as u32, joints: [0; 4], weights: [0.0; 4] };
         for (k, (wt, ji)) in infl.iter().enumerate() {
             vs.joints[k] = *ji;
             vs.weights[k] = wt / kept;
@@ -684,10 +576,7 @@ fn read_vertex_skin(
     Ok(out)
 }
 
-fn read_animations(
-    doc: &gltf::Document,
-    store: &mut BufferStore<'_>,
-) -> Result<Vec<Animation>, String> {
+fn read_animations(doc: &gltf::Document, store: &mut BufferStore<'_>) -> Result<Vec<Animation>, String> {
     let mut out = Vec::new();
     for anim in doc.animations() {
         let mut channels = Vec::new();
@@ -716,10 +605,7 @@ fn read_animations(
                 return Err(format!("{label}: sampler has no keys"));
             }
             if let Some(k) = times.values.windows(2).position(|w| w[1] <= w[0]) {
-                return Err(format!(
-                    "{label}: key times are not strictly increasing at key {}",
-                    k + 1
-                ));
+                return Err(format!("{label}: key times are not strictly increasing at key {}", k + 1));
             }
             let output = s.output();
             let want_dims = match property {
@@ -739,10 +625,7 @@ fn read_animations(
             let elems = times.count * per_key;
             let components = if property == AnimProperty::Weights {
                 if vals.count % elems != 0 {
-                    return Err(format!(
-                        "{label}: {} weight outputs for {} keys",
-                        vals.count, times.count
-                    ));
+                    return Err(format!("{label}: {} weight outputs for {} keys", vals.count, times.count));
                 }
                 vals.count / elems
             } else {
@@ -756,28 +639,17 @@ fn read_animations(
             };
             if property == AnimProperty::Rotation
                 && interpolation != Interpolation::CubicSpline
-                && vals
-                    .values
-                    .chunks_exact(4)
-                    .any(|q| DQuat::from_slice(q).length_squared() == 0.0)
+                && vals.values.chunks_exact(4).any(|q| DQuat::from_slice(q).length_squared() == 0.0)
             {
                 return Err(format!("{label}: zero-length rotation quaternion"));
             }
             channels.push(Channel {
                 node: target.node().index(),
                 property,
-                sampler: Sampler {
-                    interpolation,
-                    times: times.values,
-                    values: vals.values,
-                    components,
-                },
+                sampler: Sampler { interpolation, times: times.values, values: vals.values, components },
             });
         }
-        out.push(Animation {
-            name: anim.name().map(str::to_string),
-            channels,
-        });
+        out.push(Animation { name: anim.name().map(str::to_string), channels });
     }
     Ok(out)
 }
@@ -820,9 +692,7 @@ mod tests {
         const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
         let mut s = String::new();
         for c in b.chunks(3) {
-            let n = (c[0] as u32) << 16
-                | (*c.get(1).unwrap_or(&0) as u32) << 8
-                | *c.get(2).unwrap_or(&0) as u32;
+            let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
             for k in 0..4 {
                 if k <= c.len() {
                     s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
@@ -837,8 +707,7 @@ mod tests {
     #[test]
     fn embedded_triangle_with_node_transform() {
         let text = tri_gltf(None);
-        let (scene, report) =
-            load_gltf_bytes(Path::new("t.gltf"), text.as_bytes(), Path::new(".")).unwrap();
+        let (scene, report) = load_gltf_bytes(Path::new("t.gltf"), text.as_bytes(), Path::new(".")).unwrap();
         assert_eq!(scene.mesh.indices, vec![[0, 1, 2]]);
         assert_eq!(scene.mesh.positions[1], [3.0, 0.0, 0.0]);
         assert_eq!(scene.bindings[1].local, [1.0, 0.0, 0.0]);
@@ -850,9 +719,7 @@ mod tests {
     #[test]
     fn accessor_longer_than_view_is_an_error() {
         let text = tri_gltf(Some(4));
-        let e = load_gltf_bytes(Path::new("t.gltf"), text.as_bytes(), Path::new("."))
-            .unwrap_err()
-            .to_string();
+        let e = load_gltf_bytes(Path::new("t.gltf"), text.as_bytes(), Path::new(".")).unwrap_err().to_string();
         assert!(e.starts_with("t.gltf: "), "{e}");
         assert!(e.contains("need 48 bytes but buffer view 0 has 36"), "{e}");
     }

@@ -24,12 +24,7 @@ pub(crate) struct BufferStore<'a> {
 
 impl<'a> BufferStore<'a> {
     pub(crate) fn new(doc: &'a gltf::Document, blob: Option<Vec<u8>>, base_dir: &Path) -> Self {
-        Self {
-            doc,
-            blob,
-            base_dir: base_dir.to_path_buf(),
-            cache: vec![None; doc.buffers().len()],
-        }
+        Self { doc, blob, base_dir: base_dir.to_path_buf(), cache: vec![None; doc.buffers().len()] }
     }
 
     /// The bytes of buffer `index`, truncated to its declared `byteLength`.
@@ -45,16 +40,13 @@ impl<'a> BufferStore<'a> {
     }
 
     fn load(&mut self, index: usize) -> Result<Vec<u8>, String> {
-        let buffer = self
-            .doc
-            .buffers()
-            .nth(index)
-            .ok_or_else(|| format!("buffer {index} does not exist"))?;
+        let buffer = self.doc.buffers().nth(index).ok_or_else(|| format!("buffer {index} does not exist"))?;
         let declared = buffer.length();
         let mut data = match buffer.source() {
-            Source::Bin => self.blob.take().ok_or_else(|| {
-                format!("buffer {index} refers to the GLB binary chunk, but the file has none")
-            })?,
+            Source::Bin => self
+                .blob
+                .take()
+                .ok_or_else(|| format!("buffer {index} refers to the GLB binary chunk, but the file has none"))?,
             Source::Uri(uri) => self.load_uri(index, uri)?,
         };
         if data.len() < declared {
@@ -69,13 +61,10 @@ impl<'a> BufferStore<'a> {
 
     fn load_uri(&self, index: usize, uri: &str) -> Result<Vec<u8>, String> {
         if let Some(rest) = uri.strip_prefix("data:") {
-            let (header, payload) = rest
-                .split_once(',')
-                .ok_or_else(|| format!("buffer {index}: malformed data URI (no ',')"))?;
+            let (header, payload) =
+                rest.split_once(',').ok_or_else(|| format!("buffer {index}: malformed data URI (no ',')"))?;
             if !header.ends_with(";base64") {
-                return Err(format!(
-                    "buffer {index}: only base64 data URIs are supported"
-                ));
+                return Err(format!("buffer {index}: only base64 data URIs are supported"));
             }
             return decode_base64(payload).map_err(|e| format!("buffer {index}: data URI: {e}"));
         }
@@ -86,8 +75,7 @@ impl<'a> BufferStore<'a> {
         }
         let rel = percent_decode(uri);
         let file = self.base_dir.join(&rel);
-        std::fs::read(&file)
-            .map_err(|e| format!("buffer {index}: cannot read {}: {e}", file.display()))
+        std::fs::read(&file).map_err(|e| format!("buffer {index}: cannot read {}: {e}", file.display()))
     }
 }
 
@@ -96,8 +84,7 @@ fn has_scheme(uri: &str) -> bool {
         Some(p) if p > 1 => {
             let s = &uri[..p];
             s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
-                && s.chars()
-                    .all(|c| c.is_ascii_alphanumeric() || c == '+' || c == '-' || c == '.')
+                && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '+' || c == '-' || c == '.')
         }
         _ => uri.starts_with('/') || uri.starts_with('\\'),
     }
@@ -191,12 +178,7 @@ fn shape(d: Dimensions) -> (usize, usize) {
 }
 
 pub(crate) fn type_name(t: DataType, d: Dimensions, normalized: bool) -> String {
-    format!(
-        "{:?} {:?}{}",
-        d,
-        t,
-        if normalized { " normalized" } else { "" }
-    )
+    format!("{:?} {:?}{}", d, t, if normalized { " normalized" } else { "" })
 }
 
 fn decode(t: DataType, normalized: bool, b: &[u8]) -> f64 {
@@ -310,9 +292,7 @@ pub(crate) fn read_accessor(
     if let Some(sparse) = acc.sparse() {
         let n = sparse.count();
         if n > count {
-            return Err(format!(
-                "{what}: sparse count {n} exceeds accessor count {count}"
-            ));
+            return Err(format!("{what}: sparse count {n} exceeds accessor count {count}"));
         }
         let idx_view = sparse.indices().view();
         let it = sparse.indices().index_type();
@@ -328,10 +308,7 @@ pub(crate) fn read_accessor(
             .and_then(|x| x.checked_add(ioff))
             .ok_or_else(|| format!("{what}: sparse index range overflows"))?;
         if need > idx_bytes.len() {
-            return Err(format!(
-                "{what}: {n} sparse indices need {need} bytes, view has {}",
-                idx_bytes.len()
-            ));
+            return Err(format!("{what}: {n} sparse indices need {need} bytes, view has {}", idx_bytes.len()));
         }
         let val_view = sparse.values().view();
         let voff = sparse.values().offset();
@@ -341,10 +318,7 @@ pub(crate) fn read_accessor(
             .and_then(|x| x.checked_add(voff))
             .ok_or_else(|| format!("{what}: sparse value range overflows"))?;
         if vneed > val_bytes.len() {
-            return Err(format!(
-                "{what}: {n} sparse values need {vneed} bytes, view has {}",
-                val_bytes.len()
-            ));
+            return Err(format!("{what}: {n} sparse values need {vneed} bytes, view has {}", val_bytes.len()));
         }
         let mut prev: Option<usize> = None;
         for k in 0..n {
@@ -352,44 +326,28 @@ pub(crate) fn read_accessor(
             let ix = match isz {
                 1 => idx_bytes[o] as usize,
                 2 => u16::from_le_bytes([idx_bytes[o], idx_bytes[o + 1]]) as usize,
-                _ => u32::from_le_bytes([
-                    idx_bytes[o],
-                    idx_bytes[o + 1],
-                    idx_bytes[o + 2],
-                    idx_bytes[o + 3],
-                ]) as usize,
+                _ => u32::from_le_bytes([idx_bytes[o], idx_bytes[o + 1], idx_bytes[o + 2], idx_bytes[o + 3]]) as usize,
             };
             if ix >= count || prev.is_some_and(|p| ix <= p) {
-                return Err(format!(
-                    "{what}: sparse index {ix} out of range or not increasing"
-                ));
+                return Err(format!("{what}: sparse index {ix} out of range or not increasing"));
             }
             prev = Some(ix);
             let base = voff + k * elem_size;
             for c in 0..cols {
                 for r in 0..rows {
                     let o = base + c * col_stride + r * cs;
-                    values[ix * components + c * rows + r] =
-                        decode(t, normalized, &val_bytes[o..o + cs]);
+                    values[ix * components + c * rows + r] = decode(t, normalized, &val_bytes[o..o + cs]);
                 }
             }
         }
     }
-    Ok(AccessorData {
-        values,
-        components,
-        count,
-    })
+    Ok(AccessorData { values, components, count })
 }
 
 /// Checks that every value is finite.
 pub(crate) fn check_finite(d: &AccessorData, what: &str) -> Result<(), String> {
     if let Some(i) = d.values.iter().position(|v| !v.is_finite()) {
-        return Err(format!(
-            "{what}: element {} has a non-finite value {}",
-            i / d.components.max(1),
-            d.values[i]
-        ));
+        return Err(format!("{what}: element {} has a non-finite value {}", i / d.components.max(1), d.values[i]));
     }
     Ok(())
 }

@@ -53,21 +53,13 @@ pub enum MeshFormat {
 
 /// The format of `path` from its extension (case-insensitive), or the unsupported-format error.
 pub fn mesh_format(path: &Path) -> Result<MeshFormat, MeshError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
     match ext.as_str() {
         "obj" => Ok(MeshFormat::Obj),
         "gltf" | "glb" => Ok(MeshFormat::Gltf),
         _ => Err(MeshError::new(
             path,
-            MeshErrorKind::UnsupportedFormat(if ext.is_empty() {
-                "(no extension)".into()
-            } else {
-                format!(".{ext}")
-            }),
+            MeshErrorKind::UnsupportedFormat(if ext.is_empty() { "(no extension)".into() } else { format!(".{ext}") }),
         )),
     }
 }
@@ -79,13 +71,7 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<(Scene, ImportReport), MeshEr
     match mesh_format(path)? {
         MeshFormat::Obj => {
             let (mesh, report) = obj::load_obj(path)?;
-            Ok((
-                Scene {
-                    mesh,
-                    ..Scene::default()
-                },
-                report,
-            ))
+            Ok((Scene { mesh, ..Scene::default() }, report))
         }
         MeshFormat::Gltf => gltf::load_gltf(path),
     }

@@ -27,17 +27,10 @@ pub fn load_obj(path: &Path) -> Result<(TriMesh, ImportReport), MeshError> {
 pub fn load_obj_bytes(path: &Path, bytes: &[u8]) -> Result<(TriMesh, ImportReport), MeshError> {
     let text = String::from_utf8_lossy(bytes);
     let (sanitised, mut report) = prepass(&text).map_err(|kind| MeshError::new(path, kind))?;
-    let opts = tobj::LoadOptions {
-        single_index: false,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
+    let opts = tobj::LoadOptions { single_index: false, triangulate: true, ignore_points: true, ignore_lines: true };
     let mut reader = std::io::BufReader::new(sanitised.as_bytes());
-    let (models, _materials) =
-        tobj::load_obj_buf(&mut reader, &opts, |_| Ok((Vec::new(), Default::default())))
-            .map_err(|e| MeshError::new(path, MeshErrorKind::Obj(e.to_string())))?;
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok((Vec::new(), Default::default())))
+        .map_err(|e| MeshError::new(path, MeshErrorKind::Obj(e.to_string())))?;
     let mut mesh = TriMesh::default();
     for model in &models {
         let m = &model.mesh;
@@ -45,14 +38,10 @@ pub fn load_obj_bytes(path: &Path, bytes: &[u8]) -> Result<(TriMesh, ImportRepor
         if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
             return Err(MeshError::new(
                 path,
-                MeshErrorKind::Obj(format!(
-                    "model {:?}: position or index count not a multiple of 3",
-                    model.name
-                )),
+                MeshErrorKind::Obj(format!("model {:?}: position or index count not a multiple of 3", model.name)),
             ));
         }
-        mesh.positions
-            .extend(m.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        mesh.positions.extend(m.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         for t in m.indices.chunks_exact(3) {
             mesh.indices.push([base + t[0], base + t[1], base + t[2]]);
         }
@@ -75,10 +64,7 @@ pub fn load_obj_bytes(path: &Path, bytes: &[u8]) -> Result<(TriMesh, ImportRepor
     if clean.indices.is_empty() {
         return Err(MeshError::new(
             path,
-            MeshErrorKind::NoTriangles(format!(
-                "all {} triangles are degenerate",
-                report.source_triangles
-            )),
+            MeshErrorKind::NoTriangles(format!("all {} triangles are degenerate", report.source_triangles)),
         ));
     }
     Ok((clean, report))
@@ -124,9 +110,7 @@ fn line_err(line: usize, message: String) -> MeshErrorKind {
 fn prepass(text: &str) -> Result<(String, ImportReport), MeshErrorKind> {
     let mut report = ImportReport::default();
     // first pass: number of vertices (positive indices may refer forward)
-    let total_vertices = logical_lines(text)
-        .filter(|(_, l)| l.split_whitespace().next() == Some("v"))
-        .count();
+    let total_vertices = logical_lines(text).filter(|(_, l)| l.split_whitespace().next() == Some("v")).count();
     report.vertices_in_file = total_vertices;
     let mut out = String::with_capacity(text.len());
     let mut seen_vertices = 0usize;
@@ -139,12 +123,9 @@ fn prepass(text: &str) -> Result<(String, ImportReport), MeshErrorKind> {
             "v" => {
                 let mut xyz = [0.0f64; 3];
                 for (k, c) in xyz.iter_mut().enumerate() {
-                    let t = tok.next().ok_or_else(|| {
-                        line_err(line, format!("vertex has {k} coordinates, expected 3"))
-                    })?;
-                    let v: f64 = t.parse().map_err(|_| {
-                        line_err(line, format!("invalid vertex coordinate {t:?}"))
-                    })?;
+                    let t =
+                        tok.next().ok_or_else(|| line_err(line, format!("vertex has {k} coordinates, expected 3")))?;
+                    let v: f64 = t.parse().map_err(|_| line_err(line, format!("invalid vertex coordinate {t:?}")))?;
                     if !v.is_finite() {
                         return Err(line_err(
                             line,
@@ -161,17 +142,13 @@ fn prepass(text: &str) -> Result<(String, ImportReport), MeshErrorKind> {
                 face.clear();
                 for t in tok {
                     let first = t.split('/').next().unwrap_or("");
-                    let idx: i64 = first.parse().map_err(|_| {
-                        line_err(line, format!("invalid face vertex {t:?}"))
-                    })?;
+                    let idx: i64 = first.parse().map_err(|_| line_err(line, format!("invalid face vertex {t:?}")))?;
                     let abs = if idx > 0 {
                         let a = (idx - 1) as u64;
                         if a >= total_vertices as u64 {
                             return Err(line_err(
                                 line,
-                                format!(
-                                    "face index {idx} out of range (the file has {total_vertices} vertices)"
-                                ),
+                                format!("face index {idx} out of range (the file has {total_vertices} vertices)"),
                             ));
                         }
                         a as usize
@@ -187,10 +164,7 @@ fn prepass(text: &str) -> Result<(String, ImportReport), MeshErrorKind> {
                         }
                         seen_vertices - back as usize
                     } else {
-                        return Err(line_err(
-                            line,
-                            "face index 0 is invalid (OBJ indices start at 1)".to_string(),
-                        ));
+                        return Err(line_err(line, "face index 0 is invalid (OBJ indices start at 1)".to_string()));
                     };
                     face.push(abs);
                 }

@@ -1,5 +1,5 @@
 //! Shared helpers for tests that use the real data in `../shared/data`.
-#![allow(dead_code)]
+#![allow(dead_code, clippy::print_stderr)]
 
 use std::path::PathBuf;
 
@@ -13,10 +13,7 @@ pub fn shared_data(test: &str) -> Option<PathBuf> {
     if dir.is_dir() {
         Some(dir)
     } else {
-        eprintln!(
-            "skipping {test}: shared data directory {} not found (set PENUMBRA_SHARED_DATA)",
-            dir.display()
-        );
+        eprintln!("skipping {test}: shared data directory {} not found (set PENUMBRA_SHARED_DATA)", dir.display());
         None
     }
 }

@@ -1,0 +1,84 @@
+//! Real orthonormal SH in f32, same convention as the bake (`i = l(l+1)+m`,
+//! Condon–Shortley phase: `y₁₋₁ ∝ −y, y₁₀ ∝ z, y₁₁ ∝ −x`; see `schemas/asset-format.md`).
+
+/// Largest order the runtime evaluates.
+pub const MAX_ORDER: usize = 8;
+
+/// SH evaluator with precomputed normalisation constants (no allocation per call).
+#[derive(Debug, Clone)]
+pub struct ShBasis {
+    order: usize,
+    /// `k[l * MAX_ORDER + m]` = `K_l^m` (times √2 for m > 0).
+    k: [f32; MAX_ORDER * MAX_ORDER],
+}
+
+impl ShBasis {
+    /// Evaluator for `order` bands (clamped to 1..=8).
+    pub fn new(order: usize) -> Self {
+        let order = order.clamp(1, MAX_ORDER);
+        let mut k = [0.0f32; MAX_ORDER * MAX_ORDER];
+        for l in 0..order {
+            for m in 0..=l {
+                let mut ratio = 1.0f64;
+                for f in (l - m + 1)..=(l + m) {
+                    ratio /= f as f64;
+                }
+                let s = if m == 0 { 1.0 } else { core::f64::consts::SQRT_2 };
+                k[l * MAX_ORDER + m] = (s * ((2 * l + 1) as f64 / (4.0 * core::f64::consts::PI) * ratio).sqrt()) as f32;
+            }
+        }
+        Self { order, k }
+    }
+
+    /// Number of bands.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Writes `y_i(dir)` for `i < order²` into `out`; `dir` must be unit length.
+    pub fn eval(&self, dir: [f32; 3], out: &mut [f32]) {
+        let order = self.order;
+        let [x, y, z] = dir;
+        let (mut c, mut s) = (1.0f32, 0.0f32);
+        let mut q_mm = 1.0f32;
+        for m in 0..order {
+            if m > 0 {
+                let (c2, s2) = (c * x - s * y, c * y + s * x);
+                c = c2;
+                s = s2;
+                q_mm *= -((2 * m - 1) as f32);
+            }
+            let mut q_prev = 0.0f32;
+            let mut q = q_mm;
+            for l in m..order {
+                if l == m + 1 {
+                    q_prev = q;
+                    q = z * (2 * m + 1) as f32 * q_mm;
+                } else if l > m + 1 {
+                    let next = ((2 * l - 1) as f32 * z * q - (l + m - 1) as f32 * q_prev) / (l - m) as f32;
+                    q_prev = q;
+                    q = next;
+                }
+                let kq = self.k[l * MAX_ORDER + m] * q;
+                let base = l * (l + 1);
+                if m == 0 {
+                    out[base] = kq;
+                } else {
+                    out[base + m] = kq * c;
+                    out[base - m] = kq * s;
+                }
+            }
+        }
+    }
+
+    /// Rotation rule for zonal functions: `out[l,m] = zh_star[l] · y_lm(axis)` with starred
+    /// zonal coefficients `z*_l = √(4π/(2l+1)) z_l` as stored in SHTB tables.
+    pub fn rotate_zonal(&self, zh_star: &[f32], axis: [f32; 3], out: &mut [f32]) {
+        self.eval(axis, out);
+        for (l, z) in zh_star.iter().enumerate().take(self.order) {
+            for o in &mut out[l * l..(l + 1) * (l + 1)] {
+                *o *= z;
+            }
+        }
+    }
+}

@@ -1,0 +1,189 @@
+//! [`ShTables`]: a validated, zero-copy view of an `SHTB` asset.
+
+use crate::error::RuntimeError;
+pub use crate::sh::MAX_ORDER;
+use crate::sh::ShBasis;
+use penumbra_asset::{Asset, DType};
+
+/// Scratch size for order-8 SH vectors.
+const N2_MAX: usize = MAX_ORDER * MAX_ORDER;
+
+/// The SH tables of one order (SHEXP §4–6), read from an `SHTB` asset.
+///
+/// Grids (see the asset spec): cap tables on `θ_k = (π/2)k/(K−1)`, proxy tables on
+/// `α_k = k/(K−1)`, OL coefficients on a uniform `‖f̂‖` grid stored with the values.
+#[derive(Debug, Clone)]
+pub struct ShTables<'a> {
+    order: usize,
+    k: usize,
+    gamma_index: &'a [u16],
+    gamma_value: &'a [f32],
+    cap_log: &'a [f32],
+    proxy_log_occlusion: &'a [f32],
+    ol_ab: &'a [f32],
+    ol_accurate_norm: f32,
+    hyb_target_norm: f32,
+    eta: [f32; 4],
+    basis: ShBasis,
+}
+
+fn f32s<'a>(asset: &Asset<'a>, name: &'static str, dims: &[usize]) -> Result<&'a [f32], RuntimeError> {
+    let s = asset.section(name).ok_or(RuntimeError::MissingSection(name))?;
+    if s.dtype() != DType::F32 || s.dims() != dims {
+        return Err(RuntimeError::BadSection {
+            name,
+            reason: format!("expected f32 {dims:?}, found {} {:?}", s.dtype().name(), s.dims()),
+        });
+    }
+    s.as_f32().map_err(|e| RuntimeError::BadSection { name, reason: e.to_string() })
+}
+
+impl<'a> ShTables<'a> {
+    /// Validates the asset's kind, section types and shapes, and Γ's indices.
+    pub fn from_asset(asset: &Asset<'a>) -> Result<Self, RuntimeError> {
+        if asset.kind().as_str() != "SHTB" {
+            return Err(RuntimeError::WrongKind { expected: "SHTB", found: asset.kind().as_str().to_string() });
+        }
+        let window = asset.section("cosine_window").ok_or(RuntimeError::MissingSection("cosine_window"))?;
+        let order = window.dims().first().copied().unwrap_or(0);
+        if !(2..=MAX_ORDER).contains(&order) {
+            return Err(RuntimeError::BadSection {
+                name: "cosine_window",
+                reason: format!("order {order} not in 2..=8"),
+            });
+        }
+        let cap = asset.section("cap_log").ok_or(RuntimeError::MissingSection("cap_log"))?;
+        let k = cap.dims().first().copied().unwrap_or(0);
+        if k < 2 {
+            return Err(RuntimeError::BadSection { name: "cap_log", reason: "fewer than 2 samples".into() });
+        }
+        let gi = asset.section("gamma_index").ok_or(RuntimeError::MissingSection("gamma_index"))?;
+        let nnz = gi.dims().first().copied().unwrap_or(0);
+        if gi.dtype() != DType::U16 || gi.dims() != [nnz, 3] {
+            return Err(RuntimeError::BadSection { name: "gamma_index", reason: "expected u16 [nnz, 3]".into() });
+        }
+        let gamma_index =
+            gi.as_u16().map_err(|e| RuntimeError::BadSection { name: "gamma_index", reason: e.to_string() })?;
+        let n2 = (order * order) as u16;
+        if gamma_index.iter().any(|&i| i >= n2) {
+            return Err(RuntimeError::BadSection { name: "gamma_index", reason: "index out of range".into() });
+        }
+        let ol_ab_s = asset.section("ol_ab").ok_or(RuntimeError::MissingSection("ol_ab"))?;
+        let m = ol_ab_s.dims().first().copied().unwrap_or(0);
+        if m < 2 {
+            return Err(RuntimeError::BadSection { name: "ol_ab", reason: "fewer than 2 samples".into() });
+        }
+        let dom = f32s(asset, "ol_domain", &[2])?;
+        let eta = f32s(asset, "eta", &[4])?;
+        Ok(Self {
+            order,
+            k,
+            gamma_index,
+            gamma_value: f32s(asset, "gamma_value", &[nnz])?,
+            cap_log: f32s(asset, "cap_log", &[k, order])?,
+            proxy_log_occlusion: f32s(asset, "proxy_log_occlusion", &[k, order])?,
+            ol_ab: f32s(asset, "ol_ab", &[m, 3])?,
+            ol_accurate_norm: dom[0],
+            hyb_target_norm: dom[1],
+            eta: [eta[0], eta[1], eta[2], eta[3]],
+            basis: ShBasis::new(order),
+        })
+    }
+
+    /// SH order (bands).
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Expansion factor used for the shadow tables' smooth clamp.
+    pub fn eta_shadow(&self) -> f32 {
+        self.eta[0]
+    }
+
+    /// Expansion factor for indirect accumulation.
+    pub fn eta_indirect(&self) -> f32 {
+        self.eta[3]
+    }
+
+    /// The SH basis of this order.
+    pub fn basis(&self) -> &ShBasis {
+        &self.basis
+    }
+
+    fn lerp_row(table: &[f32], order: usize, k: usize, x: f32, out: &mut [f32]) {
+        let t = (x.clamp(0.0, 1.0)) * (k - 1) as f32;
+        let i = (t as usize).min(k - 2);
+        let w = t - i as f32;
+        for l in 0..order {
+            out[l] = table[i * order + l] * (1.0 - w) + table[(i + 1) * order + l] * w;
+        }
+    }
+
+    /// Starred ZH log-visibility of a cap of half-angle `theta` (radians, clamped to
+    /// `[0, π/2]`), linearly interpolated (SHEXP §6.1, eigen method).
+    pub fn cap_log(&self, theta: f32, out: &mut [f32]) {
+        Self::lerp_row(self.cap_log, self.order, self.k, theta / core::f32::consts::FRAC_PI_2, out);
+    }
+
+    /// Starred ZH log-occlusion of a proxy with `α = sin θ`, smoothly clamped to zero
+    /// below `1/η` (IBPA §4.1).
+    pub fn proxy_log_occlusion(&self, alpha: f32, out: &mut [f32]) {
+        Self::lerp_row(self.proxy_log_occlusion, self.order, self.k, alpha, out);
+    }
+
+    /// OL coefficients `(a, b)` at `‖f̂‖` (clamped to the table).
+    pub fn ol_ab(&self, norm_hat: f32) -> (f32, f32) {
+        let m = self.ol_ab.len() / 3;
+        let max = self.ol_ab[(m - 1) * 3];
+        if norm_hat.is_nan() || norm_hat <= 0.0 {
+            return (self.ol_ab[1], self.ol_ab[2]);
+        }
+        if norm_hat >= max {
+            return (self.ol_ab[(m - 1) * 3 + 1], self.ol_ab[(m - 1) * 3 + 2]);
+        }
+        let t = norm_hat / max * (m - 1) as f32;
+        let i = (t as usize).min(m - 2);
+        let w = t - i as f32;
+        let at = |j: usize, c: usize| self.ol_ab[j * 3 + c];
+        (at(i, 1) * (1.0 - w) + at(i + 1, 1) * w, at(i, 2) * (1.0 - w) + at(i + 1, 2) * w)
+    }
+
+    /// SH product `out = f * g` (truncated to this order; SHEXP eq. 3).
+    pub fn product(&self, f: &[f32], g: &[f32], out: &mut [f32]) {
+        let n2 = self.order * self.order;
+        out[..n2].iter_mut().for_each(|o| *o = 0.0);
+        for (idx, &v) in self.gamma_index.chunks_exact(3).zip(self.gamma_value) {
+            out[idx[0] as usize] += v * f[idx[1] as usize] * g[idx[2] as usize];
+        }
+    }
+
+    /// HYB SH exponential (SHEXP §4.3): DC isolation, scale `f̂` by `2^-s` so it lies in
+    /// OL's domain (no scaling inside `ol_accurate_norm`, else down to
+    /// `hyb_target_norm`), OL (eq. 23), `s` squarings. `f` and `out` have `order²` entries.
+    pub fn exp_hyb(&self, f: &[f32], out: &mut [f32]) {
+        let n2 = self.order * self.order;
+        let sqrt_4pi = (4.0 * core::f32::consts::PI).sqrt();
+        let norm_hat = f[1..n2].iter().map(|x| x * x).sum::<f32>().sqrt();
+        let s = if norm_hat.is_finite() && norm_hat > self.ol_accurate_norm && self.hyb_target_norm > 0.0 {
+            (norm_hat / self.hyb_target_norm).log2().ceil().max(0.0) as i32
+        } else {
+            0
+        };
+        let scale = 0.5f32.powi(s);
+        let (a, b) = self.ol_ab(norm_hat * scale);
+        let mut g = [0.0f32; N2_MAX];
+        let mut tmp = [0.0f32; N2_MAX];
+        g[0] = a * sqrt_4pi;
+        for i in 1..n2 {
+            g[i] = b * scale * f[i];
+        }
+        for _ in 0..s {
+            self.product(&g[..n2], &g[..n2], &mut tmp[..n2]);
+            g[..n2].copy_from_slice(&tmp[..n2]);
+        }
+        let dc = (f[0] / sqrt_4pi).exp();
+        for i in 0..n2 {
+            out[i] = g[i] * dc;
+        }
+    }
+}

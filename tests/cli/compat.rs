@@ -1,0 +1,44 @@
+//! Format compatibility: every asset committed under tests/assets/v1 (written by released
+//! versions, never regenerated) must keep loading.
+
+use penumbra_asset::AssetFile;
+use penumbra_runtime::ShTables;
+
+#[test]
+fn corpus_v1_still_loads() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/assets/v1");
+    let mut kinds = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "md") {
+            continue;
+        }
+        let f = AssetFile::open(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        let a = f.asset();
+        assert_eq!(a.version().0, 1);
+        let meta: serde_json::Value = serde_json::from_str(a.meta_json()).unwrap();
+        match a.kind().as_str() {
+            "SHTB" => {
+                a.require_known(penumbra_sh::tables_asset::SHTB_SECTIONS).unwrap();
+                let t = ShTables::from_asset(&a).unwrap();
+                assert_eq!(t.order() as u64, meta["params"]["order"].as_u64().unwrap());
+                // Invariants that hold for every SHTB: no blocker, no log; Γ gives 1*f = f.
+                let mut z = vec![1.0f32; t.order()];
+                t.cap_log(0.0, &mut z);
+                assert!(z.iter().all(|&v| v == 0.0));
+                let n2 = t.order() * t.order();
+                let mut one = vec![0.0f32; n2];
+                one[0] = (4.0 * std::f32::consts::PI).sqrt();
+                let f: Vec<f32> = (0..n2).map(|i| 0.1 * i as f32 - 0.3).collect();
+                let mut p = vec![0.0f32; n2];
+                t.product(&one, &f, &mut p);
+                for (a, b) in p.iter().zip(&f) {
+                    assert!((a - b).abs() < 1e-5);
+                }
+            }
+            other => panic!("no compatibility check for kind {other}"),
+        }
+        kinds.push(a.kind().as_str().to_string());
+    }
+    assert!(kinds.contains(&"SHTB".to_string()), "corpus must hold an SHTB asset");
+}
