@@ -1,3 +1,4 @@
+#![allow(clippy::print_stderr, clippy::print_stdout)] // tests report skips on stderr
 //! CLI integration tests: one test binary (DESIGN §1), on data the tests write themselves.
 //! Real-data tests skip with a message when `../shared/data` is absent.
 

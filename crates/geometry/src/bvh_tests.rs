@@ -261,3 +261,21 @@ fn far_field_expansion_is_second_order() {
         assert!((20.0..50.0).contains(&ratio), "error ratio {ratio} for {dir:?}");
     }
 }
+
+/// With obvhs' parallel build, query results do not depend on the thread count (they never
+/// depend on the tree layout; the trees themselves are compared for information).
+#[cfg(feature = "parallel")]
+#[test]
+fn parallel_build_thread_count_independent() {
+    let m = icosphere(4, 1.0, [0.0; 3]);
+    let build = |threads: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| MeshBvh::build(&m).unwrap())
+    };
+    let (a, b) = (build(1), build(2));
+    for k in 0..500 {
+        let t = k as f64 * 0.37;
+        let r = Ray::new([2.0 * t.cos(), 0.3 * t.sin(), 2.0 * t.sin()], [-t.cos(), 0.1, -t.sin()]);
+        assert_eq!(a.closest_hit(&r), b.closest_hit(&r));
+        assert_eq!(a.any_hit(&r), b.any_hit(&r));
+    }
+}

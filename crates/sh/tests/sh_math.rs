@@ -1,3 +1,4 @@
+#![allow(clippy::print_stderr)] // measured errors are printed for the record
 //! Tests that prove the SH mathematics (issue: "Tests that prove the mathematics").
 
 use core::f64::consts::PI;

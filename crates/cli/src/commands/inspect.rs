@@ -125,7 +125,7 @@ pub fn run(a: &InspectArgs) -> Result<ExitCode, CliError> {
         } else {
             let (maj, min) = asset.version();
             println!("{path}: {} bytes, penumbra asset format {maj}.{min}, kind {}", asset.file_size(), asset.kind());
-            println!("{:<22} {:<5} {:<18} {:>10} {:>9} {}", "section", "type", "dims", "bytes", "crc32c", "ok");
+            println!("{:<22} {:<5} {:<18} {:>10} {:>9} ok", "section", "type", "dims", "bytes", "crc32c");
             for (s, row) in asset.iter().zip(d["sections"].as_array().into_iter().flatten()) {
                 let i = s.info();
                 println!(
