@@ -1,4 +1,41 @@
-//! penumbra-geometry (work in progress)
+//! # penumbra-geometry
+//!
+//! Geometry for the bakes: the triangle-mesh model and its validation, OBJ and glTF 2.0
+//! import (with skins and animations), ray queries and closest points over a BVH, robust
+//! inside tests for open meshes, and environment maps (lat-long and cube) with exact texel
+//! solid angles.
+//!
+//! ## Units and conventions
+//! - **Frame**: right-handed; directions and positions are in the input's world frame and
+//!   units (glTF: +Y up, metres; OBJ: whatever the file uses). Nothing is rescaled or
+//!   re-oriented on import.
+//! - **Precision**: positions and all geometric computation in f64; environment-map texels
+//!   in f32 (linear radiance, as stored in the file).
+//! - **Triangles**: counter-clockwise is front (`(b − a) × (c − a)` is the outward normal of
+//!   a closed, consistently oriented mesh); [`TriMesh::signed_volume`] is then positive.
+//! - **glTF**: node transforms `T·R·S`, quaternions `[x, y, z, w]`, matrices column-major;
+//!   the imported [`TriMesh`] is the world-space rest pose; see [`scene`] for skinning.
+//! - **Lat-long maps**: OpenEXR orientation — row 0 is +Y, the centre column +Z, a quarter
+//!   of the width +X; texel `(x, y)` has direction `(sin λ sin θ, cos θ, cos λ sin θ)` with
+//!   `θ = π(y+½)/H`, `λ = π − 2π(x+½)/W`; see [`env`](mod@env) for the exact solid angles and how this
+//!   relates to OpenEXR's pixel formula and to the R&H Grace Cathedral frame.
+//! - **Cube maps**: faces +X, −X, +Y, −Y, +Z, −Z with OpenGL's orientation
+//!   ([`CubeFace::direction`]); default face size [`env::DEFAULT_FACE_SIZE`] = 32.
+//!
+//! ## Errors and warnings
+//! The library never prints. Failures are typed errors ([`MeshError`], [`EnvError`]) whose
+//! `Display` names the file and the problem; recoverable oddities (dropped degenerate
+//! triangles, skipped line primitives, renormalised skin weights, ...) are returned as data
+//! ([`ImportReport`], [`EnvReport`]).
+//!
+//! ## Modules
+//! - [`mesh`]: [`TriMesh`], bounds, area, volume, watertightness, cleaning.
+//! - [`import`]: [`load_mesh`] (dispatch by extension), OBJ and glTF loaders.
+//! - [`scene`]: node hierarchy, skins, animations, linear blend skinning ([`Scene::pose`]).
+//! - [`bvh`]: [`MeshBvh`] (obvhs CWBVH + exact watertight f64 tests): closest hit, any hit,
+//!   closest point; brute-force references.
+//! - [`inside`]: generalized winding number, exact and fast ([`WindingNumber`]).
+//! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`].
 
 mod aabb_tree;
 pub mod bvh;

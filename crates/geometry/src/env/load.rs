@@ -17,6 +17,9 @@ pub enum EnvmapAttribute {
 }
 
 /// Loads a lat-long environment map from `.exr` or `.hdr` (dispatch by extension).
+/// EXR: the first layer, level 0 of mip/rip-mapped files, scanline or tiled, half/float/uint
+/// R, G, B channels (alpha ignored; a lone Y channel is used as grey); the `envmap`
+/// attribute is returned in the report (a cube-map layout is rejected).
 /// Rejects NaN/Inf texels and damaged files with an error naming the file; negative texels
 /// (which some HDR tools produce by ringing) are clamped to 0 and counted in the report.
 pub fn load_env_map(path: impl AsRef<Path>) -> Result<(EnvMap, EnvReport), EnvError> {
@@ -88,6 +91,12 @@ type Decoded = (usize, usize, Vec<[f32; 3]>, Option<EnvmapAttribute>);
 
 fn read_exr(path: &Path) -> Result<Decoded, EnvError> {
     use exr::prelude::*;
+    // deep images are not environment maps (and the exr reader does not skip them)
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| EnvError::new(path, EnvErrorKind::Decode(e.to_string())))?;
+    if meta.headers.iter().any(|h| h.deep) {
+        return Err(EnvError::new(path, EnvErrorKind::Decode("deep-data OpenEXR files are not supported".into())));
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

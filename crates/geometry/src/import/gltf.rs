@@ -715,6 +715,77 @@ mod tests {
         assert_eq!(scene.pose(None, 0.0).unwrap(), scene.mesh.positions);
     }
 
+    /// One triangle plus a line primitive and a point primitive: the two are skipped and
+    /// counted; with only the point primitive it is a "no triangle primitives" error.
+    #[test]
+    fn non_triangle_primitives_are_skipped() {
+        let text = tri_gltf(None).replace(
+            r#""primitives":[{"attributes":{"POSITION":0}}]"#,
+            r#""primitives":[{"attributes":{"POSITION":0}},{"attributes":{"POSITION":0},"mode":1},{"attributes":{"POSITION":0},"mode":0}]"#,
+        );
+        let (scene, report) = load_gltf_bytes(Path::new("t.gltf"), text.as_bytes(), Path::new(".")).unwrap();
+        assert_eq!(report.skipped_elements, 2);
+        assert_eq!(scene.mesh.indices.len(), 1);
+        let only_points = tri_gltf(None).replace(
+            r#""primitives":[{"attributes":{"POSITION":0}}]"#,
+            r#""primitives":[{"attributes":{"POSITION":0},"mode":0}]"#,
+        );
+        let e = load_gltf_bytes(Path::new("p.gltf"), only_points.as_bytes(), Path::new(".")).unwrap_err().to_string();
+        assert!(e.contains("no triangle primitives (1 point/line"), "{e}");
+    }
+
+    /// A skinned triangle whose weights sum to 0.5: renormalised and counted; a joint index
+    /// beyond the skin is an error naming the vertex.
+    #[test]
+    fn skin_weights_are_validated() {
+        let build = |joint: u8| {
+            let mut b = Vec::new();
+            for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+                for c in v {
+                    b.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            for _ in 0..3 {
+                b.extend_from_slice(&[0, joint, 0, 0]);
+            }
+            for _ in 0..3 {
+                for w in [0.25f32, 0.25, 0.0, 0.0] {
+                    b.extend_from_slice(&w.to_le_bytes());
+                }
+            }
+            for _ in 0..2 {
+                for x in DMat4::IDENTITY.to_cols_array().iter() {
+                    b.extend_from_slice(&(*x as f32).to_le_bytes());
+                }
+            }
+            let b64 = encode_base64(&b);
+            format!(
+                r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
+                "nodes":[{{"mesh":0,"skin":0}},{{"children":[2]}},{{"translation":[0,1,0]}}],
+                "skins":[{{"joints":[1,2],"inverseBindMatrices":3}}],
+                "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"JOINTS_0":1,"WEIGHTS_0":2}}}}]}}],
+                "accessors":[
+                 {{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}},
+                 {{"bufferView":1,"componentType":5121,"count":3,"type":"VEC4"}},
+                 {{"bufferView":2,"componentType":5126,"count":3,"type":"VEC4"}},
+                 {{"bufferView":3,"componentType":5126,"count":2,"type":"MAT4"}}],
+                "bufferViews":[{{"buffer":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":12}},
+                 {{"buffer":0,"byteOffset":48,"byteLength":48}},{{"buffer":0,"byteOffset":96,"byteLength":128}}],
+                "buffers":[{{"byteLength":224,"uri":"data:application/gltf-buffer;base64,{b64}"}}]}}"#
+            )
+        };
+        let (scene, report) = load_gltf_bytes(Path::new("s.gltf"), build(1).as_bytes(), Path::new(".")).unwrap();
+        assert_eq!(report.renormalized_weights, 3);
+        let s = scene.bindings[0].skin.unwrap();
+        assert_eq!(s.weights, [0.5, 0.5, 0.0, 0.0]);
+        assert_eq!(s.joints[..2], [0, 1]);
+        // rest pose: joint 1 (node 2) is translated by +1 in y with identity IBM, so every
+        // vertex moves half of that
+        assert_eq!(scene.mesh.positions[1], [1.0, 0.5, 0.0]);
+        let e = load_gltf_bytes(Path::new("s.gltf"), build(7).as_bytes(), Path::new(".")).unwrap_err().to_string();
+        assert!(e.contains("vertex 0 refers to joint 7, but skin 0 has 2 joints"), "{e}");
+    }
+
     /// The gltf crate would silently return 0 vertices for an accessor longer than its view.
     #[test]
     fn accessor_longer_than_view_is_an_error() {
