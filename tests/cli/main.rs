@@ -6,6 +6,7 @@ mod bake;
 mod compat;
 mod inspect;
 mod runtime;
+mod shadows;
 mod tables;
 
 use assert_cmd::Command;

@@ -1,11 +1,14 @@
 //! penumbra-runtime: the reference runtime evaluation of penumbra assets — what an engine
 //! ports. Depends on `penumbra-asset` only (checked in CI), f32, no allocation per query.
 //!
-//! Currently: [`ShTables`], a validated view of an `SHTB` tables asset with the lookups
-//! and the SH exponential (HYB) the soft-shadow runtime needs.
+//! - [`ShTables`]: a validated view of an `SHTB` tables asset (lookups, SH products, SH
+//!   exponentials HYB/OL/PS*-p).
+//! - [`shadows`]: soft shadows from sphere proxies at a receiver (log accumulation,
+//!   self-shadow replacement rules, exponentiation, windowed diffuse shading).
 
 mod error;
 pub mod sh;
+pub mod shadows;
 mod tables;
 
 pub use error::RuntimeError;

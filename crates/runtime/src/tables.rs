@@ -24,6 +24,7 @@ pub struct ShTables<'a> {
     ol_accurate_norm: f32,
     hyb_target_norm: f32,
     eta: [f32; 4],
+    window: &'a [f32],
     basis: ShBasis,
 }
 
@@ -86,6 +87,7 @@ impl<'a> ShTables<'a> {
             ol_accurate_norm: dom[0],
             hyb_target_norm: dom[1],
             eta: [eta[0], eta[1], eta[2], eta[3]],
+            window: f32s(asset, "cosine_window", &[order])?,
             basis: ShBasis::new(order),
         })
     }
@@ -103,6 +105,11 @@ impl<'a> ShTables<'a> {
     /// Expansion factor for indirect accumulation.
     pub fn eta_indirect(&self) -> f32 {
         self.eta[3]
+    }
+
+    /// Cosine window `cos(π/2 · l/h)`, `h = 2n` (SHEXP §7), per band.
+    pub fn cosine_window(&self) -> &[f32] {
+        self.window
     }
 
     /// The SH basis of this order.
@@ -154,6 +161,81 @@ impl<'a> ShTables<'a> {
         out[..n2].iter_mut().for_each(|o| *o = 0.0);
         for (idx, &v) in self.gamma_index.chunks_exact(3).zip(self.gamma_value) {
             out[idx[0] as usize] += v * f[idx[1] as usize] * g[idx[2] as usize];
+        }
+    }
+
+    /// Product matrix `(M_f)_ij = Σ_k Γ_ijk f_k` (SHEXP eq. 5), row-major `n² × n²` into `out`.
+    pub fn product_matrix(&self, f: &[f32], out: &mut [f32]) {
+        let n2 = self.order * self.order;
+        out[..n2 * n2].iter_mut().for_each(|o| *o = 0.0);
+        for (idx, &v) in self.gamma_index.chunks_exact(3).zip(self.gamma_value) {
+            out[idx[0] as usize * n2 + idx[1] as usize] += v * f[idx[2] as usize];
+        }
+    }
+
+    /// OL SH exponential (SHEXP eq. 23), no products.
+    pub fn exp_ol(&self, f: &[f32], out: &mut [f32]) {
+        let n2 = self.order * self.order;
+        let sqrt_4pi = (4.0 * core::f32::consts::PI).sqrt();
+        let norm_hat = f[1..n2].iter().map(|x| x * x).sum::<f32>().sqrt();
+        let (a, b) = self.ol_ab(norm_hat);
+        let dc = (f[0] / sqrt_4pi).exp();
+        out[0] = dc * a * sqrt_4pi;
+        for i in 1..n2 {
+            out[i] = dc * b * f[i];
+        }
+    }
+
+    /// PS*-p SH exponential (SHEXP §4.3): DC isolation, `s = max(0, ⌊log₂‖f̂‖⌋ + 3)`
+    /// squarings, even/odd factored product series of degree `p` (eq. 22).
+    pub fn exp_ps_star(&self, f: &[f32], p: u32, out: &mut [f32]) {
+        let n2 = self.order * self.order;
+        let sqrt_4pi = (4.0 * core::f32::consts::PI).sqrt();
+        let norm_hat = f[1..n2].iter().map(|x| x * x).sum::<f32>().sqrt();
+        let s = if norm_hat > 0.0 && norm_hat.is_finite() { (norm_hat.log2().floor() as i32 + 3).max(0) } else { 0 };
+        let scale = 0.5f32.powi(s);
+        let mut h = [0.0f32; N2_MAX];
+        for i in 1..n2 {
+            h[i] = f[i] * scale;
+        }
+        let (mut even, mut odd) = ([0.0f32; N2_MAX], [0.0f32; N2_MAX]);
+        even[0] = sqrt_4pi;
+        odd[0] = sqrt_4pi;
+        let mut h2 = [0.0f32; N2_MAX];
+        self.product(&h[..n2], &h[..n2], &mut h2[..n2]);
+        let mut pow = h2;
+        let mut tmp = [0.0f32; N2_MAX];
+        let mut k = 1u32;
+        let mut fact = 1.0f32;
+        while 2 * k <= p {
+            if k > 1 {
+                self.product(&pow[..n2], &h2[..n2], &mut tmp[..n2]);
+                pow = tmp;
+            }
+            fact *= (2 * k - 1) as f32 * (2 * k) as f32; // (2k)!
+            for i in 0..n2 {
+                even[i] += pow[i] / fact;
+            }
+            if 2 * k < p {
+                let fo = fact * (2 * k + 1) as f32;
+                for i in 0..n2 {
+                    odd[i] += pow[i] / fo;
+                }
+            }
+            k += 1;
+        }
+        let mut g = [0.0f32; N2_MAX];
+        self.product(&h[..n2], &odd[..n2], &mut g[..n2]);
+        for i in 0..n2 {
+            g[i] += even[i];
+        }
+        for _ in 0..s {
+            self.product(&g[..n2], &g[..n2], &mut tmp[..n2]);
+            g = tmp;
+        }
+        let dc = (f[0] / sqrt_4pi).exp();
+        for i in 0..n2 {
+            out[i] = g[i] * dc;
         }
     }
 

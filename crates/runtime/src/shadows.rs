@@ -1,0 +1,358 @@
+//! Soft shadows and indirect light from sphere proxies at a receiver (SHEXP §4–7, IBPA §3–5).
+//!
+//! Per receiver `(p, N)`:
+//! 1. accumulate the log visibility of every blocker sphere (SHEXP eq. 34): `α = r/d`,
+//!    `f += O^log(α)·y(ŝ)` from the SHTB proxy table (IBPA §4.1: smoothly clamped to zero
+//!    below `α = 1/η`), after the self-shadow replacement rules (SHEXP §6.2, [`replace`]);
+//! 2. exponentiate (SHEXP §4: HYB by default, OL, or PS*-p);
+//! 3. shade a diffuse receiver: `E = (H(N), L, g) = H(N)ᵀ M_L g` with the cosine-windowed
+//!    environment `L` (SHEXP §7) — `H(N) = max(s·N, 0)` rotated to the normal;
+//! 4. optionally add indirect light from the proxies (IBPA §5, averaged operator, order 3),
+//!    normalised for overlap by IBPA eq. 12.
+//!
+//! Units: `E` is irradiance (W/m² per unit radiance of `L`); the shaded diffuse radiance
+//! of an albedo-ρ receiver is `ρE/π`. f32 throughout; no allocation per receiver.
+
+use crate::sh::MAX_ORDER;
+use crate::tables::ShTables;
+
+const N2: usize = MAX_ORDER * MAX_ORDER;
+const SQRT_4PI: f32 = 3.544_907_7;
+
+/// SH exponential used at run time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RuntimeExp {
+    /// Optimal linear with scaling/squaring (SHEXP §4.3). Default.
+    Hyb,
+    /// Optimal linear, no products (SHEXP eq. 23).
+    Ol,
+    /// DC isolation + scaling/squaring + factored product series of degree p (SHEXP §4.3).
+    PsStar(u32),
+}
+
+/// A blocker sphere: centre and radius, in the receiver's world units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    /// Centre.
+    pub center: [f32; 3],
+    /// Radius (> 0).
+    pub radius: f32,
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn add_scaled(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
+    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
+}
+
+/// Self-shadow replacement rules (SHEXP §6.2) for a blocker `s` seen from a receiver at
+/// `p` with unit outward normal `n` (tangent plane `T_p`). Returns the sphere to
+/// accumulate, or `None` if it is eliminated. Let `h = (c − p)·N` (height of the centre
+/// above `T_p`), `q₁` the projection of `c` onto `T_p` and `d_c = √(r² − h²)` the radius
+/// of the sphere's cross-section with `T_p`.
+///
+/// - `p` inside `S`: eliminated when `h ≤ 0`, else replaced by the sphere of radius `h`
+///   about `c` (tangent to `T_p` at `q₁`).
+/// - `p` outside `S`: eliminated when entirely behind `T_p` (`h ≤ −r`), unchanged when
+///   entirely in front (`h ≥ r`); otherwise replaced by `S'`, the sphere tangent to `T_p`
+///   at `q₁` whose diameter is `q₀q₁`, `q₀ = c + rN`, i.e. radius `(h + r)/2`.
+///
+/// Continuity. Both replacements are spheres tangent to `T_p` at `q₁`; only their radius
+/// `ρ` differs (`max(h, 0)` inside, `(h + r)/2` outside), so the rule as stated jumps when
+/// `p` leaves `S`. SHEXP fixes this by "gradually scaling up the radius of S' as a function
+/// of p's distance to S along the tangent plane" with `α = max(1, (‖p − q₁‖ − d)/d)`,
+/// `d = d_c`. As printed, `α ≥ 1` everywhere and equals 1 on the boundary, which cannot
+/// make `ρ` continuous there (the text extraction may have lost a `min`). We implement the
+/// stated intent: with `t = clamp((‖p − q₁‖ − d_c)/d_c, 0, 1)` — the same quantity, zero
+/// on the boundary of `S` and 1 once `p` is `d_c` beyond it — the radius grows linearly
+/// from the inside-rule radius to that of `S'`: `ρ = (1 − t)·max(h, 0) + t·(h + r)/2`.
+/// The result is continuous in `p` (tested).
+pub fn replace(s: Sphere, p: [f32; 3], n: [f32; 3]) -> Option<Sphere> {
+    let r = s.radius;
+    let cp = sub(s.center, p);
+    let h = dot(cp, n);
+    let d2 = dot(cp, cp);
+    let q1 = add_scaled(s.center, n, -h);
+    let tangent = |rho: f32| (rho > 0.0).then(|| Sphere { center: add_scaled(q1, n, rho), radius: rho });
+    if d2 < r * r {
+        return if h <= 0.0 { None } else { tangent(h) };
+    }
+    if h <= -r {
+        return None;
+    }
+    if h >= r {
+        return Some(s);
+    }
+    let dc = (r * r - h * h).max(0.0).sqrt();
+    let in_plane = {
+        let v = sub(p, q1);
+        dot(v, v).sqrt()
+    };
+    let t = if dc > 0.0 { ((in_plane - dc) / dc).clamp(0.0, 1.0) } else { 1.0 };
+    tangent((1.0 - t) * h.max(0.0) + t * 0.5 * (h + r))
+}
+
+/// Options of the shadow evaluation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShadowOptions {
+    /// SH exponential.
+    pub exp: RuntimeExp,
+    /// Apply the self-shadow replacement rules (off: accumulate spheres as they are).
+    pub self_shadow_rules: bool,
+    /// Window lighting and visibility with the table's cosine window (SHEXP §7).
+    pub window: bool,
+}
+
+impl Default for ShadowOptions {
+    fn default() -> Self {
+        Self { exp: RuntimeExp::Hyb, self_shadow_rules: true, window: true }
+    }
+}
+
+/// Evaluates shadowed irradiance at receivers for one lighting environment.
+#[derive(Debug, Clone)]
+pub struct ShadowEvaluator<'a> {
+    tables: &'a ShTables<'a>,
+    options: ShadowOptions,
+    order: usize,
+    /// Per colour channel, the product matrix of the (windowed) light, row-major n²×n².
+    light_matrix: [Vec<f32>; 3],
+    /// Starred ZH of `H = max(z,0)/π`·π = clamped cosine (so `E` is irradiance).
+    cosine_star: [f32; MAX_ORDER],
+    window: [f32; MAX_ORDER],
+}
+
+impl<'a> ShadowEvaluator<'a> {
+    /// `light` holds RGB SH coefficients of the environment radiance at the tables' order
+    /// (`order²` entries, each `[r, g, b]`).
+    pub fn new(tables: &'a ShTables<'a>, light: &[[f32; 3]], options: ShadowOptions) -> Self {
+        let order = tables.order();
+        let n2 = order * order;
+        let mut window = [1.0f32; MAX_ORDER];
+        if options.window {
+            window[..order].copy_from_slice(tables.cosine_window());
+        }
+        let mut light_matrix = [vec![0.0f32; n2 * n2], vec![0.0f32; n2 * n2], vec![0.0f32; n2 * n2]];
+        for (c, m) in light_matrix.iter_mut().enumerate() {
+            let mut l = [0.0f32; N2];
+            for i in 0..n2.min(light.len()) {
+                l[i] = light[i][c] * window[band(i)];
+            }
+            tables.product_matrix(&l[..n2], m);
+        }
+        // Clamped cosine ZH (starred): π, 2π/3, π/4, 0, −π/24, 0, π/64, …
+        let mut cosine_star = [0.0f32; MAX_ORDER];
+        for (l, c) in cosine_star.iter_mut().enumerate().take(order) {
+            *c = clamped_cosine_star(l);
+        }
+        Self { tables, options, order, light_matrix, cosine_star, window }
+    }
+
+    /// The tables.
+    pub fn tables(&self) -> &ShTables<'a> {
+        self.tables
+    }
+
+    /// Accumulates the log visibility of `spheres` at `(p, n)` into `f` (`order²`
+    /// entries, zeroed first).
+    pub fn accumulate_log(&self, p: [f32; 3], n: [f32; 3], spheres: &[Sphere], f: &mut [f32]) {
+        let n2 = self.order * self.order;
+        f[..n2].iter_mut().for_each(|v| *v = 0.0);
+        let mut zh = [0.0f32; MAX_ORDER];
+        let mut y = [0.0f32; N2];
+        for &s0 in spheres {
+            let s = if self.options.self_shadow_rules {
+                match replace(s0, p, n) {
+                    Some(s) => s,
+                    None => continue,
+                }
+            } else {
+                s0
+            };
+            self.add_sphere_log(p, s, 1.0, None, &mut zh, &mut y, f);
+        }
+    }
+
+    /// Adds one sphere's log visibility, optionally scaled per band by `w` (SHEXP eq. 38).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn add_sphere_log(
+        &self,
+        p: [f32; 3],
+        s: Sphere,
+        scale: f32,
+        w: Option<&[f32]>,
+        zh: &mut [f32; MAX_ORDER],
+        y: &mut [f32; N2],
+        f: &mut [f32],
+    ) {
+        let order = self.order;
+        let v = sub(s.center, p);
+        let d = dot(v, v).sqrt();
+        if d.is_nan() || d <= 0.0 || s.radius <= 0.0 {
+            return;
+        }
+        // p outside after the replacement rules; if still inside (rules off), treat the
+        // blocker as covering the whole hemisphere seen from the surface: α = 1.
+        let alpha = (s.radius / d).min(1.0);
+        self.tables.proxy_log_occlusion(alpha, &mut zh[..order]);
+        if zh[0] == 0.0 {
+            return; // outside the sphere of influence (smooth clamp, IBPA §4.1)
+        }
+        let dir = [v[0] / d, v[1] / d, v[2] / d];
+        self.tables.basis().eval(dir, &mut y[..order * order]);
+        for l in 0..order {
+            let wl = scale * zh[l] * w.map_or(1.0, |w| w[l]);
+            for i in l * l..(l + 1) * (l + 1) {
+                f[i] += wl * y[i];
+            }
+        }
+    }
+
+    /// `g = exp*(f)` with the configured method.
+    pub fn exponentiate(&self, f: &[f32], g: &mut [f32]) {
+        match self.options.exp {
+            RuntimeExp::Hyb => self.tables.exp_hyb(f, g),
+            RuntimeExp::Ol => self.tables.exp_ol(f, g),
+            RuntimeExp::PsStar(p) => self.tables.exp_ps_star(f, p, g),
+        }
+    }
+
+    /// Irradiance `E = (H(N), L, g)` for a total visibility `g` (windowed first if
+    /// enabled), RGB.
+    pub fn shade(&self, n: [f32; 3], g: &[f32]) -> [f32; 3] {
+        let order = self.order;
+        let n2 = order * order;
+        let mut h = [0.0f32; N2];
+        self.tables.basis().rotate_zonal(&self.cosine_star[..order], n, &mut h[..n2]);
+        let mut gw = [0.0f32; N2];
+        for i in 0..n2 {
+            gw[i] = g[i] * self.window[band(i)];
+        }
+        let mut out = [0.0f32; 3];
+        for (c, m) in self.light_matrix.iter().enumerate() {
+            let mut s = 0.0f32;
+            for i in 0..n2 {
+                if h[i] == 0.0 {
+                    continue;
+                }
+                let row = &m[i * n2..(i + 1) * n2];
+                let mut acc = 0.0f32;
+                for k in 0..n2 {
+                    acc += row[k] * gw[k];
+                }
+                s += h[i] * acc;
+            }
+            out[c] = s;
+        }
+        out
+    }
+
+    /// Unshadowed irradiance at normal `n` (visibility `1`).
+    pub fn unshadowed(&self, n: [f32; 3]) -> [f32; 3] {
+        let mut one = [0.0f32; N2];
+        one[0] = SQRT_4PI;
+        self.shade(n, &one)
+    }
+
+    /// Shadowed irradiance at `(p, n)` from `spheres` (steps 1–3).
+    pub fn irradiance(&self, p: [f32; 3], n: [f32; 3], spheres: &[Sphere]) -> [f32; 3] {
+        let mut f = [0.0f32; N2];
+        let mut g = [0.0f32; N2];
+        let n2 = self.order * self.order;
+        self.accumulate_log(p, n, spheres, &mut f[..n2]);
+        self.exponentiate(&f[..n2], &mut g[..n2]);
+        self.shade(n, &g[..n2])
+    }
+}
+
+fn band(i: usize) -> usize {
+    let mut l = 0;
+    while (l + 1) * (l + 1) <= i {
+        l += 1;
+    }
+    l
+}
+
+/// `√(4π/(2l+1))` times the clamped-cosine ZH coefficient: π, 2π/3, π/4, 0, −π/24, …
+fn clamped_cosine_star(l: usize) -> f32 {
+    use core::f64::consts::PI;
+    let v = match l {
+        0 => PI,
+        1 => 2.0 * PI / 3.0,
+        _ if l % 2 == 1 => 0.0,
+        _ => {
+            // 2π (−1)^{l/2+1} (l−2)!! / ((l+2)(l−1) l!!) ·… closed form of the even bands:
+            // Â_l = 2π (−1)^{l/2 − 1} / ((l + 2)(l − 1)) · l! / (2^l ((l/2)!)²)
+            let mut fact_ratio = 1.0f64; // l! / (2^l ((l/2)!)^2)
+            for k in 1..=l {
+                fact_ratio *= k as f64;
+            }
+            let mut half = 1.0f64;
+            for k in 1..=l / 2 {
+                half *= k as f64;
+            }
+            fact_ratio /= 2f64.powi(l as i32) * half * half;
+            let sign = if (l / 2) % 2 == 1 { 1.0 } else { -1.0 };
+            2.0 * PI * sign / ((l + 2) as f64 * (l - 1) as f64) * fact_ratio
+        }
+    };
+    v as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clamped_cosine_known_values() {
+        use core::f32::consts::PI;
+        let want = [PI, 2.0 * PI / 3.0, PI / 4.0, 0.0, -PI / 24.0, 0.0, PI / 64.0];
+        for (l, w) in want.iter().enumerate() {
+            assert!((clamped_cosine_star(l) - w).abs() < 1e-6, "l={l}: {}", clamped_cosine_star(l));
+        }
+    }
+
+    #[test]
+    fn replacement_rules_cases() {
+        let n = [0.0, 0.0, 1.0];
+        let p = [0.0, 0.0, 0.0];
+        // entirely in front: unchanged
+        let s = Sphere { center: [0.0, 0.0, 3.0], radius: 1.0 };
+        assert_eq!(replace(s, p, n), Some(s));
+        // entirely behind: removed
+        assert_eq!(replace(Sphere { center: [2.0, 0.0, -1.5], radius: 1.0 }, p, n), None);
+        // contains p, centre behind: removed
+        assert_eq!(replace(Sphere { center: [0.1, 0.0, -0.2], radius: 1.0 }, p, n), None);
+        // contains p, centre in front: radius = height, tangent to the plane
+        let r = replace(Sphere { center: [0.1, 0.0, 0.3], radius: 1.0 }, p, n).unwrap();
+        assert!((r.radius - 0.3).abs() < 1e-6 && (r.center[2] - 0.3).abs() < 1e-6);
+        // straddling, far along the plane: S' with diameter q0 q1 (radius (h+r)/2)
+        let r = replace(Sphere { center: [10.0, 0.0, 0.5], radius: 1.0 }, p, n).unwrap();
+        assert!((r.radius - 0.75).abs() < 1e-6 && (r.center[2] - 0.75).abs() < 1e-6 && r.center[0] == 10.0);
+    }
+
+    #[test]
+    fn replacement_is_continuous_leaving_the_sphere() {
+        // Receiver moves along the plane out of a sphere straddling it, for centres above
+        // and below the plane: the replacement radius never jumps.
+        let n = [0.0, 0.0, 1.0];
+        for h in [-0.6f32, -0.1, 0.0, 0.2, 0.7] {
+            let s = Sphere { center: [0.0, 0.0, h], radius: 1.0 };
+            let mut prev: Option<f32> = None;
+            for k in 0..=4000 {
+                let x = 3.0 * k as f32 / 4000.0;
+                let rho = replace(s, [x, 0.0, 0.0], n).map_or(0.0, |r| r.radius);
+                if let Some(pr) = prev {
+                    assert!((rho - pr).abs() < 2e-3, "h={h} x={x}: {pr} -> {rho}");
+                }
+                prev = Some(rho);
+            }
+        }
+    }
+}
