@@ -180,3 +180,58 @@ fn shading_is_continuous_when_the_receiver_leaves_a_sphere() {
         }
     }
 }
+
+#[test]
+fn indirect_from_one_proxy_matches_the_sh_truncation() {
+    use penumbra_sh::zonal::cap_indicator;
+    // One white proxy straight above the receiver under a constant environment of unit
+    // radiance: every point of the proxy receives irradiance π, so a Lambertian proxy of
+    // albedo ρ has radiance ρ, and the receiver gets ρ·∫_cap cos = ρπα² (closed form).
+    // The order-3 SH pipeline computes ρ Σ_{l<3} V_l c_l instead (truncation of the cap
+    // and of the cosine); the runtime must match that to the tables' interpolation and the
+    // overlap factor ξ (≈ 1 for one proxy): 3 %.
+    let order = 4;
+    let bytes = tables_bytes(order);
+    let owned = OwnedAsset::parse(&bytes).unwrap();
+    let t = ShTables::from_asset(&owned.asset()).unwrap();
+    let ev = ShadowEvaluator::new(&t, &white(order), ShadowOptions { window: false, ..Default::default() });
+    let rho = [0.5f32, 0.8, 1.0];
+    let c3 = clamped_cosine(3);
+    for &(height, radius) in &[(2.0f32, 0.5f32), (2.0, 1.0), (4.0, 1.5)] {
+        let alpha = (radius / height) as f64;
+        let v3 = cap_indicator(3, alpha.asin());
+        let sh3: f64 = (0..3).map(|l| v3[l] * c3[l]).sum();
+        let s = [Sphere { center: [0.0, 0.0, height], radius }];
+        let out = ev.shade_with_indirect([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], &s, rho);
+        for c in 0..3 {
+            let want = rho[c] as f64 * sh3;
+            let got = out.indirect[c] as f64;
+            assert!((got - want).abs() < 0.03 * want, "α={alpha} c={c}: {got} vs {want}");
+            // and the truncated value is close to the closed form ρπα²
+            let closed = rho[c] as f64 * PI * alpha * alpha;
+            assert!((want - closed).abs() < 0.1 * closed + 0.02, "α={alpha}: SH {want} vs closed {closed}");
+        }
+    }
+}
+
+#[test]
+fn indirect_of_disjoint_proxies_adds_up() {
+    // Two proxies whose caps do not overlap: eq. 12's overlap factor must stay ≈ 1, so the
+    // indirect light of the pair is the sum of the two singles (within the error of the
+    // order-4 exponential's covered solid angle, 10 %).
+    let order = 4;
+    let bytes = tables_bytes(order);
+    let owned = OwnedAsset::parse(&bytes).unwrap();
+    let t = ShTables::from_asset(&owned.asset()).unwrap();
+    let ev = ShadowEvaluator::new(&t, &white(order), ShadowOptions { window: false, ..Default::default() });
+    let rho = [0.7f32; 3];
+    let a = Sphere { center: [1.2, 0.0, 2.0], radius: 0.5 };
+    let b = Sphere { center: [-1.2, 0.3, 2.0], radius: 0.5 };
+    let (p, n) = ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+    let one_a = ev.shade_with_indirect(p, n, &[a], rho).indirect[0];
+    let one_b = ev.shade_with_indirect(p, n, &[b], rho).indirect[0];
+    let both = ev.shade_with_indirect(p, n, &[a, b], rho).indirect[0];
+    assert!(one_a > 0.0 && one_b > 0.0);
+    let sum = one_a + one_b;
+    assert!((both - sum).abs() < 0.1 * sum, "pair {both} vs sum of singles {sum}");
+}

@@ -20,6 +20,8 @@ pub struct ShTables<'a> {
     gamma_value: &'a [f32],
     cap_log: &'a [f32],
     proxy_log_occlusion: &'a [f32],
+    proxy_visibility: &'a [f32],
+    indirect_d: &'a [f32],
     ol_ab: &'a [f32],
     ol_accurate_norm: f32,
     hyb_target_norm: f32,
@@ -83,6 +85,8 @@ impl<'a> ShTables<'a> {
             gamma_value: f32s(asset, "gamma_value", &[nnz])?,
             cap_log: f32s(asset, "cap_log", &[k, order])?,
             proxy_log_occlusion: f32s(asset, "proxy_log_occlusion", &[k, order])?,
+            proxy_visibility: f32s(asset, "proxy_visibility", &[k, order])?,
+            indirect_d: f32s(asset, "indirect_d", &[k, 3])?,
             ol_ab: f32s(asset, "ol_ab", &[m, 3])?,
             ol_accurate_norm: dom[0],
             hyb_target_norm: dom[1],
@@ -136,6 +140,20 @@ impl<'a> ShTables<'a> {
     /// below `1/η` (IBPA §4.1).
     pub fn proxy_log_occlusion(&self, alpha: f32, out: &mut [f32]) {
         Self::lerp_row(self.proxy_log_occlusion, self.order, self.k, alpha, out);
+    }
+
+    /// Starred ZH of the proxy visibility `V(α)` for the first `out.len()` bands (≤ order),
+    /// smoothly clamped to zero below `α = 1/η_indirect` (IBPA §4.1, §5).
+    pub fn proxy_visibility(&self, alpha: f32, out: &mut [f32]) {
+        let mut row = [0.0f32; MAX_ORDER];
+        Self::lerp_row(self.proxy_visibility, self.order, self.k, alpha, &mut row[..self.order]);
+        let m = out.len().min(self.order);
+        out[..m].copy_from_slice(&row[..m]);
+    }
+
+    /// Starred ZH of the averaged indirect operator `D(α)` (IBPA eq. 14, order 3).
+    pub fn indirect_d(&self, alpha: f32, out: &mut [f32; 3]) {
+        Self::lerp_row(self.indirect_d, 3, self.k, alpha, out);
     }
 
     /// OL coefficients `(a, b)` at `‖f̂‖` (clamped to the table).
