@@ -15,6 +15,14 @@ pub struct BakeConfig {
     pub tables: Option<TablesStage>,
 }
 
+impl BakeConfig {
+    /// Whether the config names at least one stage. Every stage added to the config is
+    /// listed here.
+    pub fn has_stage(&self) -> bool {
+        self.tables.is_some()
+    }
+}
+
 /// The `[tables]` stage: SH tables for one SH order (SHEXP §4–7, IBPA §4–5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]

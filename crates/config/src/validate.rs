@@ -51,8 +51,8 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
             }
         }
     }
-    if c.tables.is_none() {
-        out.push(issue("tables", "the config names no stage to bake (add a [tables] table)"));
+    if !c.has_stage() {
+        out.push(issue("stages", "the config names no stage to bake (add a stage table such as [tables])"));
     }
     out
 }

@@ -71,7 +71,8 @@ fn output_must_be_a_plain_name() {
 #[test]
 fn empty_config_names_missing_stage() {
     let e = err("output_dir = \"out\"\n");
-    assert_eq!(e.key, "tables");
+    assert_eq!(e.key, "stages");
+    assert!(e.message.contains("no stage"), "{}", e.message);
 }
 
 #[test]

@@ -1,0 +1,1 @@
+//! penumbra-transport: Modular Radiance Transfer operators. Work in progress (issue 6).
