@@ -35,6 +35,9 @@
 //! - [`bvh`]: [`MeshBvh`] (obvhs CWBVH + exact watertight f64 tests): closest hit, any hit,
 //!   closest point; brute-force references.
 //! - [`inside`]: generalized winding number, exact and fast ([`WindingNumber`]).
+//! - [`procedural`]: icosphere, box, torus, grid, implicit surfaces, the demo character.
+//! - [`voxel`]: [`SignedDistanceGrid`] (narrow-band exact signed distances on a grid) and the
+//!   fast exact [`InsideOracle`]; triangle/box overlap.
 //! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`].
 
 mod aabb_tree;
@@ -47,9 +50,11 @@ pub mod import;
 pub mod inside;
 mod kernels;
 pub mod mesh;
+pub mod procedural;
 pub mod scene;
 #[cfg(test)]
 mod testutil;
+pub mod voxel;
 
 pub use bvh::{ClosestPoint, Hit, MeshBvh, Ray};
 pub use env::{CubeFace, CubeMap, EnvMap, EnvReport, load_env_map};
@@ -58,3 +63,4 @@ pub use import::{ImportReport, load_mesh};
 pub use inside::WindingNumber;
 pub use mesh::{Aabb, TriMesh};
 pub use scene::Scene;
+pub use voxel::{GridSpec, InsideOracle, SignedDistanceGrid, triangle_box_overlap};

@@ -348,6 +348,47 @@ impl Scene {
             .collect())
     }
 
+    /// The part of the scene instantiated by the glTF node(s) named `name`: the triangles whose
+    /// three vertices belong to such a node, with their vertices and bindings (nodes, skins and
+    /// animations are kept whole so the subset can still be posed). `None` when no triangle
+    /// matches (including scenes without nodes, such as OBJ files).
+    pub fn subset_by_node_name(&self, name: &str) -> Option<Scene> {
+        let matches = |v: u32| {
+            self.bindings
+                .get(v as usize)
+                .and_then(|b| b.node)
+                .and_then(|n| self.nodes.get(n as usize))
+                .is_some_and(|n| n.name.as_deref() == Some(name))
+        };
+        let tris: Vec<[u32; 3]> = self.mesh.indices.iter().copied().filter(|t| t.iter().all(|&v| matches(v))).collect();
+        if tris.is_empty() {
+            return None;
+        }
+        let mut remap = vec![u32::MAX; self.mesh.positions.len()];
+        let mut positions = Vec::new();
+        let mut bindings = Vec::new();
+        let indices = tris
+            .iter()
+            .map(|t| {
+                t.map(|v| {
+                    if remap[v as usize] == u32::MAX {
+                        remap[v as usize] = positions.len() as u32;
+                        positions.push(self.mesh.positions[v as usize]);
+                        bindings.push(self.bindings[v as usize]);
+                    }
+                    remap[v as usize]
+                })
+            })
+            .collect();
+        Some(Scene {
+            mesh: TriMesh { positions, indices },
+            nodes: self.nodes.clone(),
+            skins: self.skins.clone(),
+            animations: self.animations.clone(),
+            bindings,
+        })
+    }
+
     /// The mesh at a pose: `mesh` with positions replaced by [`Scene::pose`].
     pub fn posed_mesh(&self, animation: Option<usize>, time: f64) -> Result<TriMesh, PoseError> {
         Ok(TriMesh { positions: self.pose(animation, time)?, indices: self.mesh.indices.clone() })

@@ -1,1 +1,33 @@
-//! penumbra-spheres: variational bounding sphere sets (SHEXP §6.2–6.3). Work in progress (issue 3).
+//! # penumbra-spheres: bounding sphere sets for sphere-proxy soft shadows
+//!
+//! `penumbra spheres` fits a set of spheres that *bounds* a mesh while wasting as little volume
+//! outside it as possible — SHEXP §6.2's variational sphere sets — and optionally builds the
+//! sphere hierarchy of §6.3 and the per-sphere bone weights that let the set follow a skinned
+//! character.
+//!
+//! - [`fit::fit`]: the whole bake (import is the CLI's job): canonical frame, signed-distance
+//!   grid, samples, the Lloyd fit ([`lloyd`]) or the octree baseline ([`octree`]), f32
+//!   rounding that keeps the set bounding, [`hierarchy`], [`skin`], and the [`metrics`].
+//! - [`asset`]: the `SPHR` asset (sections in `schemas/asset-format.md`).
+//!
+//! Units and frame: spheres are in the input's units and frame (glTF: metres, +Y up). The fit
+//! itself runs in a canonical frame ([`frame`]) so that it is scale-invariant.
+
+pub mod asset;
+pub mod error;
+pub mod fit;
+pub mod frame;
+pub mod hierarchy;
+pub mod lloyd;
+pub mod metrics;
+pub mod minball;
+pub mod octree;
+pub mod powell;
+pub mod samples;
+pub mod skin;
+pub mod sphere;
+pub mod volume;
+
+pub use error::SpheresError;
+pub use fit::{FitParams, FitResult, Method, Target, fit};
+pub use sphere::Sphere;

@@ -1,0 +1,330 @@
+//! `penumbra spheres`: bounding sphere sets (SHEXP §6.2–6.3), and `penumbra spheres export`.
+
+use crate::args::{SphereMethod, SpheresAction, SpheresArgs, SpheresExportArgs, SpheresFitArgs};
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::{ensure_parent, write_atomic_text};
+use crate::progress::{ProgressMode, Reporter};
+use anyhow::{Context, anyhow};
+use penumbra_asset::AssetFile;
+use penumbra_geometry::{ImportReport, Scene, load_mesh};
+use penumbra_spheres::asset::{SPHR_KIND_VERSION, read, to_asset};
+use penumbra_spheres::fit::{FitParams, FitResult, Method, Target};
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// One sphere bake: what to fit and where to write it.
+#[derive(Debug, Clone)]
+pub struct SpheresJob {
+    /// Input mesh.
+    pub mesh: PathBuf,
+    /// glTF node name filter.
+    pub mesh_name: Option<String>,
+    /// Fit parameters.
+    pub params: FitParams,
+    /// Output asset.
+    pub output: PathBuf,
+}
+
+/// What a sphere bake produced.
+#[derive(Debug)]
+pub struct SpheresOutcome {
+    /// The `--json` object without `bytes`, `seconds`, `output`.
+    pub metrics: Value,
+    /// Bytes written.
+    pub bytes: u64,
+    /// Wall time.
+    pub seconds: f64,
+    /// The Lloyd iteration log (for `--verbose`).
+    pub log: Vec<penumbra_spheres::lloyd::IterationLog>,
+}
+
+/// Maps the CLI method.
+pub fn method(m: SphereMethod) -> Method {
+    match m {
+        SphereMethod::Lloyd => Method::Lloyd,
+        SphereMethod::Octree => Method::Octree,
+    }
+}
+
+fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::Lloyd => "lloyd",
+        Method::Octree => "octree",
+    }
+}
+
+/// Normalised parameters as JSON (cache key and `meta`).
+fn params_json(job: &SpheresJob) -> Value {
+    let p = &job.params;
+    let (count, target_error) = match p.target {
+        Target::Count(n) => (Some(n), None),
+        Target::Error(e) => (None, Some(e)),
+    };
+    json!({
+        "method": method_name(p.method),
+        "count": count,
+        "target_error": target_error,
+        "grid": p.grid,
+        "iterations": p.iterations,
+        "seed": p.seed,
+        "hierarchy": p.hierarchy,
+        "skin": p.skin,
+        "mesh_name": job.mesh_name,
+        "per_sphere_samples": p.metrics.per_sphere_samples,
+        "union_samples": p.metrics.union_samples,
+    })
+}
+
+/// Cache key of a job: tool version, parameters and the mesh bytes.
+pub fn cache_key(job: &SpheresJob, mesh_hash: &str) -> String {
+    let v =
+        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "spheres", "params": params_json(job), "mesh": mesh_hash});
+    blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
+}
+
+/// Loads the mesh (and the named node's part of it).
+pub fn load_scene(path: &Path, mesh_name: Option<&str>) -> Result<(Scene, ImportReport), CliError> {
+    let (scene, report) = load_mesh(path).map_err(CliError::input)?;
+    let scene = match mesh_name {
+        None => scene,
+        Some(name) => scene.subset_by_node_name(name).ok_or_else(|| {
+            let names: Vec<&str> = scene.nodes.iter().filter_map(|n| n.name.as_deref()).collect();
+            CliError::input(anyhow!(
+                "{}: --mesh-name {name:?}: no triangles belong to a node of that name{}",
+                path.display(),
+                if names.is_empty() {
+                    " (the file has no named nodes)".to_string()
+                } else {
+                    format!(" (nodes: {})", names.join(", "))
+                }
+            ))
+        })?,
+    };
+    Ok((scene, report))
+}
+
+fn strip_seconds(v: &mut Value) {
+    if let Some(o) = v.as_object_mut() {
+        o.retain(|k, _| !k.ends_with("seconds"));
+    }
+}
+
+/// The `--json` object of a result (without bytes/seconds/output).
+fn result_json(r: &FitResult, import: &ImportReport) -> Value {
+    let m = &r.metrics;
+    let rep = &r.report;
+    let accepted: Vec<f64> = rep.log.iter().map(|l| l.e).collect();
+    json!({
+        "count": rep.count,
+        "requested_count": rep.requested_count,
+        "method": method_name(rep.method),
+        "outside_volume_ratio": m.outside_volume_ratio,
+        "outside_volume_ratio_stderr": m.outside_volume_ratio_stderr,
+        "union_outside_ratio": m.union_outside_ratio,
+        "union_outside_ratio_stderr": m.union_outside_ratio_stderr,
+        "uncovered_ratio": m.uncovered_ratio,
+        "uncovered_ratio_stderr": m.uncovered_ratio_stderr,
+        "union_samples": m.union_samples,
+        "per_sphere_samples": m.per_sphere_samples,
+        "max_uncovered_distance": m.max_uncovered_distance,
+        "max_uncovered_distance_rel": m.max_uncovered_distance_rel,
+        "uncovered_sample_points": m.uncovered_sample_points,
+        "volume": m.volume,
+        "volume_exact": m.volume_exact,
+        "model_outside_volume_ratio": rep.model_outside_volume_ratio,
+        "iterations": rep.iterations,
+        "teleports_accepted": rep.teleports_accepted,
+        "teleports_rejected": rep.teleports_rejected,
+        "e_history": accepted,
+        "search": rep.search.iter().map(|(n, e)| json!({"count": n, "outside_volume_ratio": e})).collect::<Vec<_>>(),
+        "hierarchy_levels": r.hierarchy.as_ref().map(|h| h.levels.len() + 1),
+        "hierarchy_nodes": r.hierarchy.as_ref().map(|h| h.levels.iter().map(Vec::len).collect::<Vec<_>>()),
+        "skin_coverage_min": r.skin_coverage.as_ref().map(|c| c.min),
+        "skin_coverage": r.skin_coverage,
+        "octree_level": rep.octree_level,
+        "octree_level_counts": rep.octree_level_counts,
+        "grid_nodes": rep.grid_nodes,
+        "grid_spacing": rep.grid_spacing,
+        "surface_elements": rep.surface_elements,
+        "interior_points": rep.interior_points,
+        "watertight": rep.watertight,
+        "flipped_orientation": rep.flipped_orientation,
+        "dropped_triangles": import.dropped_triangles(),
+        "setup_seconds": rep.setup_seconds,
+        "fit_seconds": rep.fit_seconds,
+        "finish_seconds": rep.finish_seconds,
+    })
+}
+
+/// Runs one job: load, fit, write atomically.
+pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, CliError> {
+    let start = Instant::now();
+    let bytes_in = std::fs::read(&job.mesh).with_context(|| format!("cannot read {}", job.mesh.display()))?;
+    let mesh_hash = blake3::hash(&bytes_in).to_hex().to_string();
+    drop(bytes_in);
+    let (scene, import) = load_scene(&job.mesh, job.mesh_name.as_deref())?;
+    let reporter = Reporter::new("spheres", mode);
+    let r = penumbra_spheres::fit(&scene, &job.params, &reporter)
+        .map_err(|e| CliError::input(anyhow!("{}: {e}", job.mesh.display())))?;
+    reporter.finish();
+    let metrics = result_json(&r, &import);
+    let mut meta_metrics = metrics.clone();
+    strip_seconds(&mut meta_metrics);
+    if let Some(o) = meta_metrics.as_object_mut() {
+        o.remove("e_history");
+    }
+    let mut log = serde_json::to_value(&r.report.log).unwrap_or(Value::Null);
+    strip_seconds(&mut log);
+    let meta = json!({
+        "kind": "SPHR",
+        "kind_version": SPHR_KIND_VERSION,
+        "tool": concat!("penumbra ", env!("CARGO_PKG_VERSION")),
+        "convention": {
+            "spheres": "[x, y, z, radius] f32, in the input's units and frame (glTF: metres, +Y up)",
+            "bounding": "every mesh vertex, every surface subdivision point and every interior grid point lies inside at least one sphere, evaluated in f64 from the stored f32 values",
+            "hierarchy": "levels from the root; hierarchy_children (first, count) index the next level, or `spheres` for the last level",
+            "skin": "P' = sum_b w_b * G_b(t) * G_b(rest)^-1 * P (G: global transform of glTF node skin_nodes[b]); radius unchanged",
+        },
+        "params": params_json(job),
+        "input": {
+            "file": job.mesh.file_name().map(|n| n.to_string_lossy().into_owned()),
+            "blake3": mesh_hash,
+            "triangles": scene.mesh.indices.len(),
+            "vertices": scene.mesh.positions.len(),
+        },
+        "cache_key": cache_key(job, &mesh_hash),
+        "metrics": meta_metrics,
+        "iteration_log": log,
+    });
+    let asset = to_asset(&r, &meta).map_err(CliError::internal)?;
+    ensure_parent(&job.output)?;
+    let bytes = asset.write_atomic(&job.output).with_context(|| format!("cannot write {}", job.output.display()))?;
+    Ok(SpheresOutcome { metrics, bytes, seconds: start.elapsed().as_secs_f64(), log: r.report.log })
+}
+
+/// Builds a job from the command line.
+pub fn job_from_args(a: &SpheresFitArgs) -> Result<SpheresJob, CliError> {
+    let mesh = a.mesh.clone().ok_or_else(|| CliError::input(anyhow!("a mesh is required")))?;
+    let output = a.output.clone().ok_or_else(|| CliError::input(anyhow!("-o OUTPUT is required")))?;
+    let target = match (a.count, a.target_error) {
+        (Some(n), None) => Target::Count(n as usize),
+        (None, Some(e)) => Target::Error(e),
+        _ => return Err(CliError::input(anyhow!("give exactly one of --count N or --target-error E"))),
+    };
+    let mut params = FitParams::new(target);
+    params.method = method(a.method);
+    params.grid = a.grid as usize;
+    params.iterations = a.iterations as usize;
+    params.seed = a.seed;
+    params.hierarchy = a.hierarchy;
+    params.skin = a.skin;
+    params.metrics.seed = a.seed;
+    params.validate().map_err(CliError::input)?;
+    Ok(SpheresJob { mesh, mesh_name: a.mesh_name.clone(), params, output })
+}
+
+/// Runs `penumbra spheres`.
+#[allow(clippy::print_stderr)]
+pub fn run(a: &SpheresArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    if let Some(SpheresAction::Export(e)) = &a.action {
+        return export(e);
+    }
+    let f = &a.fit;
+    let job = job_from_args(f)?;
+    let out = bake_to(&job, mode)?;
+    if f.verbose {
+        for l in &out.log {
+            eprintln!(
+                "iteration {:>3} {:<8} E {:.5} (candidate {:.5}) {}",
+                l.iteration,
+                format!("{:?}", l.kind).to_lowercase(),
+                l.e,
+                l.candidate_e,
+                if l.accepted { "accepted" } else { "rejected" }
+            );
+        }
+    }
+    let mut v = out.metrics.clone();
+    if let Some(o) = v.as_object_mut() {
+        o.insert("bytes".into(), json!(out.bytes));
+        o.insert("seconds".into(), json!(out.seconds));
+        o.insert("output".into(), json!(job.output.display().to_string()));
+    }
+    if f.json {
+        print_json(&v);
+    } else {
+        let m = &out.metrics;
+        let num = |k: &str| m[k].as_f64().unwrap_or(f64::NAN);
+        eprintln!(
+            "wrote {} ({} bytes) in {:.2} s\n  {} spheres ({})  E {:.4} ± {:.4}  union outside {:.4}  uncovered {:.2e}  max uncovered distance {:.3e}\n  iterations {}  teleports {} accepted / {} rejected{}{}",
+            job.output.display(),
+            out.bytes,
+            out.seconds,
+            m["count"],
+            m["method"].as_str().unwrap_or(""),
+            num("outside_volume_ratio"),
+            num("outside_volume_ratio_stderr"),
+            num("union_outside_ratio"),
+            num("uncovered_ratio"),
+            num("max_uncovered_distance"),
+            m["iterations"],
+            m["teleports_accepted"],
+            m["teleports_rejected"],
+            m["hierarchy_levels"].as_u64().map(|l| format!("  hierarchy levels {l}")).unwrap_or_default(),
+            m["skin_coverage_min"].as_f64().map(|c| format!("  posed coverage ≥ {c:.4}")).unwrap_or_default(),
+        );
+    }
+    Ok(ExitCode::Ok)
+}
+
+/// `penumbra spheres export`: one icosphere per sphere, as OBJ (one `o` group per sphere).
+#[allow(clippy::print_stderr)]
+fn export(e: &SpheresExportArgs) -> Result<ExitCode, CliError> {
+    let file = AssetFile::open(&e.asset).map_err(|err| CliError::input(anyhow!("{err}")))?;
+    let set = read(&file.asset()).map_err(|err| CliError::input(anyhow!("{}: {err}", e.asset.display())))?;
+    let spheres: Vec<[f32; 4]> = match e.level {
+        None => set.spheres.clone(),
+        Some(l) => {
+            let h = set.hierarchy.as_ref().ok_or_else(|| {
+                CliError::input(anyhow!(
+                    "{}: --level {l}: the asset has no hierarchy (bake with --hierarchy)",
+                    e.asset.display()
+                ))
+            })?;
+            let depth = h.levels.len();
+            match (l as usize).cmp(&depth) {
+                std::cmp::Ordering::Less => h.levels[l as usize].clone(),
+                std::cmp::Ordering::Equal => set.spheres.clone(),
+                std::cmp::Ordering::Greater => {
+                    return Err(CliError::input(anyhow!(
+                        "--level {l} is out of range (allowed: 0..={depth}; {depth} = the leaves)"
+                    )));
+                }
+            }
+        }
+    };
+    let unit = penumbra_geometry::procedural::icosphere(e.subdivisions, 1.0, [0.0; 3]);
+    let mut text = format!("# penumbra spheres export: {} spheres from {}\n", spheres.len(), e.asset.display());
+    let nv = unit.positions.len();
+    for (i, s) in spheres.iter().enumerate() {
+        text.push_str(&format!("o sphere_{i}\n"));
+        for p in &unit.positions {
+            text.push_str(&format!(
+                "v {} {} {}\n",
+                s[0] as f64 + s[3] as f64 * p[0],
+                s[1] as f64 + s[3] as f64 * p[1],
+                s[2] as f64 + s[3] as f64 * p[2]
+            ));
+        }
+        for t in &unit.indices {
+            let b = i * nv + 1;
+            text.push_str(&format!("f {} {} {}\n", b + t[0] as usize, b + t[1] as usize, b + t[2] as usize));
+        }
+    }
+    ensure_parent(&e.obj)?;
+    write_atomic_text(&e.obj, &text)?;
+    eprintln!("wrote {} ({} spheres)", e.obj.display(), spheres.len());
+    Ok(ExitCode::Ok)
+}

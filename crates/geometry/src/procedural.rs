@@ -1,0 +1,306 @@
+//! Procedural meshes for examples, the demo scene and tests: closed primitives (icosphere,
+//! box, torus), an open grid, and closed surfaces of implicit solids by marching tetrahedra
+//! (the demo character is a union of capsules and boxes). Everything is deterministic and
+//! outward-oriented (`(b − a) × (c − a)` points out of the solid).
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+
+use crate::mesh::TriMesh;
+
+/// Icosphere: a subdivided icosahedron projected to the sphere; closed, `20·4^s` triangles.
+pub fn icosphere(subdivisions: u32, radius: f64, center: [f64; 3]) -> TriMesh {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut v: Vec<DVec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|p| DVec3::from(*p).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut mid = BTreeMap::new();
+        let mut midpoint = |a: u32, b: u32, v: &mut Vec<DVec3>| -> u32 {
+            let key = (a.min(b), a.max(b));
+            *mid.entry(key).or_insert_with(|| {
+                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
+                (v.len() - 1) as u32
+            })
+        };
+        let mut nf = Vec::with_capacity(f.len() * 4);
+        for [a, b, c] in f {
+            let ab = midpoint(a, b, &mut v);
+            let bc = midpoint(b, c, &mut v);
+            let ca = midpoint(c, a, &mut v);
+            nf.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = nf;
+    }
+    let c = DVec3::from(center);
+    TriMesh { positions: v.iter().map(|p| (c + radius * *p).to_array()).collect(), indices: f }
+}
+
+/// A regular grid of `n × n` quads (two triangles each) in the plane `z = 0` over `[0, n]²`
+/// (open, normal +z).
+pub fn grid(n: u32) -> TriMesh {
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            positions.push([i as f64, j as f64, 0.0]);
+        }
+    }
+    let mut indices = Vec::new();
+    let id = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            indices.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            indices.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    TriMesh { positions, indices }
+}
+
+/// The axis-aligned box `[min, max]`: 8 vertices, 12 triangles, closed.
+pub fn aabb_box(min: [f64; 3], max: [f64; 3]) -> TriMesh {
+    let mut positions = Vec::with_capacity(8);
+    for k in 0..8 {
+        positions.push([
+            if k & 1 == 0 { min[0] } else { max[0] },
+            if k & 2 == 0 { min[1] } else { max[1] },
+            if k & 4 == 0 { min[2] } else { max[2] },
+        ]);
+    }
+    // each face as a quad (a, b, c, d), counter-clockwise seen from outside
+    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
+    let indices = quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
+    TriMesh { positions, indices }
+}
+
+/// A torus around the +z axis: major radius `big`, tube radius `small`, `nu × nv` quads; closed.
+pub fn torus(big: f64, small: f64, nu: u32, nv: u32) -> TriMesh {
+    let mut positions = Vec::with_capacity((nu * nv) as usize);
+    for i in 0..nu {
+        let u = std::f64::consts::TAU * i as f64 / nu as f64;
+        for j in 0..nv {
+            let v = std::f64::consts::TAU * j as f64 / nv as f64;
+            let r = big + small * v.cos();
+            positions.push([r * u.cos(), r * u.sin(), small * v.sin()]);
+        }
+    }
+    let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
+    let mut indices = Vec::with_capacity(2 * (nu * nv) as usize);
+    for i in 0..nu {
+        for j in 0..nv {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            indices.push([a, b, c]);
+            indices.push([a, c, d]);
+        }
+    }
+    TriMesh { positions, indices }
+}
+
+/// The closed surface `{f = 0}` of the solid `{f < 0}` inside the box `[min, max]`, by marching
+/// tetrahedra on a grid of `cells` cells along the longest side (Kuhn split of each cube into
+/// six tetrahedra, which is consistent across neighbouring cubes, so the surface is watertight
+/// wherever the solid stays inside the box). Vertices on shared grid edges are shared;
+/// triangles are oriented toward increasing `f`. `f` should not vanish exactly at grid nodes
+/// (a node value of exactly 0 counts as outside).
+pub fn implicit_surface(f: impl Fn(DVec3) -> f64, min: [f64; 3], max: [f64; 3], cells: usize) -> TriMesh {
+    let lo = DVec3::from(min);
+    let ext = DVec3::from(max) - lo;
+    let h = ext.max_element() / cells.max(1) as f64;
+    let n = [(ext.x / h).ceil() as usize + 1, (ext.y / h).ceil() as usize + 1, (ext.z / h).ceil() as usize + 1];
+    let node = |i: usize, j: usize, k: usize| i + n[0] * (j + n[1] * k);
+    let pos = |i: usize, j: usize, k: usize| lo + h * DVec3::new(i as f64, j as f64, k as f64);
+    let mut values = vec![0.0; n[0] * n[1] * n[2]];
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                values[node(i, j, k)] = f(pos(i, j, k));
+            }
+        }
+    }
+    let coords = |id: usize| (id % n[0], (id / n[0]) % n[1], id / (n[0] * n[1]));
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut edge_vertex: BTreeMap<(usize, usize), u32> = BTreeMap::new();
+    let mut indices: Vec<[u32; 3]> = Vec::new();
+    let mut vertex_on = |a: usize, b: usize, positions: &mut Vec<[f64; 3]>| -> u32 {
+        let key = (a.min(b), a.max(b));
+        *edge_vertex.entry(key).or_insert_with(|| {
+            let (fa, fb) = (values[key.0], values[key.1]);
+            let (ia, ja, ka) = coords(key.0);
+            let (ib, jb, kb) = coords(key.1);
+            let t = fa / (fa - fb);
+            let p = pos(ia, ja, ka).lerp(pos(ib, jb, kb), t);
+            positions.push(p.to_array());
+            (positions.len() - 1) as u32
+        })
+    };
+    // Kuhn triangulation: a path from corner 0 to corner 7 along the axes in every order.
+    const PERMS: [[usize; 3]; 6] = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    for k in 0..n[2] - 1 {
+        for j in 0..n[1] - 1 {
+            for i in 0..n[0] - 1 {
+                for perm in PERMS {
+                    let mut c = [i, j, k];
+                    let mut tet = [node(c[0], c[1], c[2]); 4];
+                    for (s, &axis) in perm.iter().enumerate() {
+                        c[axis] += 1;
+                        tet[s + 1] = node(c[0], c[1], c[2]);
+                    }
+                    let inside: Vec<usize> = tet.iter().copied().filter(|&v| values[v] < 0.0).collect();
+                    let outside: Vec<usize> = tet.iter().copied().filter(|&v| values[v] >= 0.0).collect();
+                    let centroid = |vs: &[usize]| {
+                        vs.iter().fold(DVec3::ZERO, |acc, &v| {
+                            let (a, b, c) = coords(v);
+                            acc + pos(a, b, c)
+                        }) / vs.len() as f64
+                    };
+                    let tris: Vec<[u32; 3]> = match inside.len() {
+                        1 | 3 => {
+                            let (lone, others) =
+                                if inside.len() == 1 { (inside[0], &outside) } else { (outside[0], &inside) };
+                            vec![[
+                                vertex_on(lone, others[0], &mut positions),
+                                vertex_on(lone, others[1], &mut positions),
+                                vertex_on(lone, others[2], &mut positions),
+                            ]]
+                        }
+                        2 => {
+                            let (a, b) = (inside[0], inside[1]);
+                            let (c, d) = (outside[0], outside[1]);
+                            let (ac, ad, bd, bc) = (
+                                vertex_on(a, c, &mut positions),
+                                vertex_on(a, d, &mut positions),
+                                vertex_on(b, d, &mut positions),
+                                vertex_on(b, c, &mut positions),
+                            );
+                            vec![[ac, ad, bd], [ac, bd, bc]]
+                        }
+                        _ => Vec::new(),
+                    };
+                    if tris.is_empty() {
+                        continue;
+                    }
+                    let outward = centroid(&outside) - centroid(&inside);
+                    for t in tris {
+                        let [p0, p1, p2] = t.map(|v| DVec3::from(positions[v as usize]));
+                        let nrm = (p1 - p0).cross(p2 - p0);
+                        indices.push(if nrm.dot(outward) >= 0.0 { t } else { [t[0], t[2], t[1]] });
+                    }
+                }
+            }
+        }
+    }
+    TriMesh { positions, indices }
+}
+
+/// Signed distance to the capsule (segment `a`–`b`, radius `r`).
+pub fn capsule_sdf(p: DVec3, a: DVec3, b: DVec3, r: f64) -> f64 {
+    let ab = b - a;
+    let t = ((p - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+    (p - (a + t * ab)).length() - r
+}
+
+/// Signed distance to the box `center ± half` with its edges rounded by `round`.
+pub fn rounded_box_sdf(p: DVec3, center: DVec3, half: DVec3, round: f64) -> f64 {
+    let q = (p - center).abs() - (half - DVec3::splat(round));
+    q.max(DVec3::ZERO).length() + q.max_element().min(0.0) - round
+}
+
+/// The demo character: a union of a rounded-box torso and pelvis, a spherical head, and
+/// capsule arms and legs, about 1.8 units tall, standing on `y = 0` and facing +z (glTF
+/// frame: +y up). `cells` is the marching-tetrahedra resolution along the height.
+pub fn character(cells: usize) -> TriMesh {
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let sdf = move |p: DVec3| {
+        let parts = [
+            rounded_box_sdf(p, v(0.0, 1.2, 0.0), v(0.22, 0.28, 0.13), 0.06), // torso
+            rounded_box_sdf(p, v(0.0, 0.9, 0.0), v(0.2, 0.1, 0.12), 0.05),   // pelvis
+            (p - v(0.0, 1.62, 0.02)).length() - 0.14,                        // head
+            capsule_sdf(p, v(0.0, 1.45, 0.0), v(0.0, 1.52, 0.0), 0.06),      // neck
+            capsule_sdf(p, v(-0.3, 1.42, 0.0), v(-0.62, 1.12, 0.05), 0.06),  // left arm
+            capsule_sdf(p, v(0.3, 1.42, 0.0), v(0.55, 1.0, 0.12), 0.06),     // right arm
+            capsule_sdf(p, v(-0.11, 0.85, 0.0), v(-0.14, 0.1, 0.02), 0.08),  // left leg
+            capsule_sdf(p, v(0.11, 0.85, 0.0), v(0.16, 0.1, -0.02), 0.08),   // right leg
+            rounded_box_sdf(p, v(-0.14, 0.05, 0.07), v(0.07, 0.05, 0.13), 0.03), // left foot
+            rounded_box_sdf(p, v(0.16, 0.05, 0.05), v(0.07, 0.05, 0.13), 0.03), // right foot
+        ];
+        parts.into_iter().fold(f64::INFINITY, f64::min)
+    };
+    // offsets by irrational fractions keep grid nodes off the zero set
+    let pad = 0.0517;
+    implicit_surface(sdf, [-0.75 - pad, -pad * 0.7, -0.3 - pad], [0.75 + pad, 1.85, 0.35 + pad], cells)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn primitives_are_closed_with_known_volume() {
+        let s = icosphere(2, 1.0, [0.0; 3]);
+        assert_eq!(s.indices.len(), 320);
+        assert!(s.is_watertight());
+        let b = aabb_box([0.0, 0.0, 0.0], [2.0, 3.0, 4.0]);
+        assert!(b.is_watertight());
+        assert!((b.signed_volume() - 24.0).abs() < 1e-12);
+        // a polygonal torus of N×M quads encloses slightly less than 2π²Rr²
+        let t = torus(2.0, 0.5, 96, 48);
+        assert!(t.is_watertight());
+        let exact = 2.0 * std::f64::consts::PI.powi(2) * 2.0 * 0.25;
+        let v = t.signed_volume();
+        assert!(v < exact && v > 0.99 * exact, "{v} vs {exact}");
+    }
+
+    #[test]
+    fn implicit_sphere_is_closed_and_accurate() {
+        let m = implicit_surface(|p| p.length() - 1.0, [-1.3; 3], [1.3; 3], 40);
+        assert!(m.is_watertight());
+        let v = m.signed_volume();
+        let exact = 4.0 / 3.0 * std::f64::consts::PI;
+        assert!((v - exact).abs() < 0.02 * exact, "{v} vs {exact}");
+    }
+
+    #[test]
+    fn character_is_closed() {
+        let m = character(48);
+        assert!(m.is_watertight());
+        let b = m.bounds().unwrap();
+        assert!(b.min[1] > -0.01 && b.max[1] > 1.7 && b.max[1] < 1.8, "{b:?}");
+        assert!(m.signed_volume() > 0.0);
+    }
+}

@@ -1,0 +1,43 @@
+//! Errors of the sphere-set bake.
+
+use crate::skin::SkinError;
+
+/// Why a fit could not be made. `Display` says what is wrong and what is allowed; the CLI
+/// adds the file name.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SpheresError {
+    /// The mesh has no triangles left after cleaning.
+    #[error("the mesh has no (non-degenerate) triangles")]
+    EmptyMesh,
+    /// All vertices coincide.
+    #[error("the mesh's bounding box is a single point; there is nothing to bound")]
+    DegenerateBounds,
+    /// A parameter is out of range.
+    #[error("{name} = {value} is out of range (allowed: {allowed})")]
+    OutOfRange {
+        /// Parameter name.
+        name: &'static str,
+        /// Given value.
+        value: String,
+        /// Allowed range.
+        allowed: String,
+    },
+    /// More spheres requested than there are elements to cluster.
+    #[error(
+        "{count} spheres requested but the mesh discretises into only {elements} elements at --grid {grid}; ask for fewer spheres or a finer grid"
+    )]
+    TooManySpheres {
+        /// Requested count.
+        count: usize,
+        /// Elements available.
+        elements: usize,
+        /// Grid resolution.
+        grid: usize,
+    },
+    /// Skinning failed.
+    #[error("skinning: {0}")]
+    Skin(#[from] SkinError),
+    /// The asset could not be built or read.
+    #[error("asset: {0}")]
+    Asset(String),
+}

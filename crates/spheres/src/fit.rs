@@ -1,0 +1,488 @@
+//! The sphere-set bake from a loaded scene to bounding f32 spheres, hierarchy, skin weights
+//! and measured quality.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use penumbra_geometry::{GridSpec, InsideOracle, MeshBvh, Scene, SignedDistanceGrid, TriMesh, WindingNumber};
+use penumbra_math::progress::Progress;
+
+use crate::error::SpheresError;
+use crate::frame::Frame;
+use crate::hierarchy::{self, Hierarchy};
+use crate::lloyd::{self, IterationLog, LloydSettings};
+use crate::metrics::{self, MetricSettings, Metrics};
+use crate::minball::min_ball;
+use crate::octree;
+use crate::samples::Samples;
+use crate::skin::{self, SkinCoverage, SphereSkin};
+use crate::sphere::{Sphere, from_f32, round_to_f32};
+use crate::volume::VolumeModel;
+
+/// Fitting method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// SHEXP §6.2: Lloyd clustering + Powell + teleportation.
+    Lloyd,
+    /// Hubbard's octree baseline.
+    Octree,
+}
+
+/// What to fit to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Target {
+    /// Exactly this many spheres (octree: about this many).
+    Count(usize),
+    /// The smallest count (within the search) whose measured E is at most this.
+    Error(f64),
+}
+
+/// Largest sphere count.
+pub const MAX_COUNT: usize = 4096;
+/// Allowed `grid` range.
+pub const GRID_RANGE: std::ops::RangeInclusive<usize> = 8..=256;
+
+/// Parameters of the bake.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitParams {
+    /// Count or target error.
+    pub target: Target,
+    /// Method.
+    pub method: Method,
+    /// Grid resolution: about `grid³` cells in the mesh's bounding box (interior points and
+    /// the signed-distance grid of the volume model).
+    pub grid: usize,
+    /// Maximum Lloyd iterations (teleport trials included).
+    pub iterations: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Build the hierarchy.
+    pub hierarchy: bool,
+    /// Compute skin weights (needs a skinned scene).
+    pub skin: bool,
+    /// Measurement sample counts.
+    pub metrics: MetricSettings,
+}
+
+impl FitParams {
+    /// Defaults for a target.
+    pub fn new(target: Target) -> Self {
+        Self {
+            target,
+            method: Method::Lloyd,
+            grid: 48,
+            iterations: 100,
+            seed: 1,
+            hierarchy: false,
+            skin: false,
+            metrics: MetricSettings::default(),
+        }
+    }
+
+    /// Checks every range.
+    pub fn validate(&self) -> Result<(), SpheresError> {
+        match self.target {
+            Target::Count(n) if !(1..=MAX_COUNT).contains(&n) => {
+                return Err(SpheresError::OutOfRange {
+                    name: "count",
+                    value: n.to_string(),
+                    allowed: format!("1..={MAX_COUNT}"),
+                });
+            }
+            Target::Error(e) if !(e > 0.0 && e.is_finite()) => {
+                return Err(SpheresError::OutOfRange {
+                    name: "target-error",
+                    value: e.to_string(),
+                    allowed: "a positive number (E = Σ V(Sᵢ − T) / V(T))".into(),
+                });
+            }
+            _ => {}
+        }
+        if !GRID_RANGE.contains(&self.grid) {
+            return Err(SpheresError::OutOfRange {
+                name: "grid",
+                value: self.grid.to_string(),
+                allowed: format!("{}..={}", GRID_RANGE.start(), GRID_RANGE.end()),
+            });
+        }
+        if !(1..=10_000).contains(&self.iterations) {
+            return Err(SpheresError::OutOfRange {
+                name: "iterations",
+                value: self.iterations.to_string(),
+                allowed: "1..=10000".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The hierarchy as stored: f32 node spheres per level (root first) and child ranges.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredHierarchy {
+    /// Node spheres `[x, y, z, r]` per level, root level first.
+    pub levels: Vec<Vec<[f32; 4]>>,
+    /// `(first, count)` of each node's children in the next level (the leaves for the last).
+    pub children: Vec<Vec<(u32, u32)>>,
+}
+
+/// Everything the bake reports besides the spheres.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitReport {
+    /// Method used.
+    pub method: Method,
+    /// Spheres produced.
+    pub count: usize,
+    /// Requested count (or the count the error search settled on).
+    pub requested_count: usize,
+    /// Iterations of the final fit (octree: 0).
+    pub iterations: usize,
+    /// Teleport candidates kept.
+    pub teleports_accepted: usize,
+    /// Teleport candidates discarded.
+    pub teleports_rejected: usize,
+    /// The Lloyd iteration log (E by the volume model).
+    pub log: Vec<IterationLog>,
+    /// Counts tried by a `--target-error` search, with their measured E.
+    pub search: Vec<(usize, f64)>,
+    /// Octree level used and the cell counts of every level.
+    pub octree_level: Option<u32>,
+    /// Octree cell counts per level.
+    pub octree_level_counts: Vec<usize>,
+    /// Grid nodes along x, y, z and the spacing in input units.
+    pub grid_nodes: [usize; 3],
+    /// Grid spacing, input units.
+    pub grid_spacing: f64,
+    /// Surface elements (sub-triangles) and interior points clustered.
+    pub surface_elements: usize,
+    /// Interior points.
+    pub interior_points: usize,
+    /// Whether the mesh is watertight.
+    pub watertight: bool,
+    /// Whether the triangles were inside-out (negative volume) and were flipped.
+    pub flipped_orientation: bool,
+    /// E by the volume model for the final set (compare with the measured E).
+    pub model_outside_volume_ratio: f64,
+    /// Seconds: grid and samples.
+    pub setup_seconds: f64,
+    /// Seconds: the fit.
+    pub fit_seconds: f64,
+    /// Seconds: hierarchy, skin and measurements.
+    pub finish_seconds: f64,
+}
+
+/// The result of a bake.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// Leaf spheres as stored (`[x, y, z, r]`, input units), in hierarchy order when there is one.
+    pub spheres: Vec<[f32; 4]>,
+    /// The hierarchy.
+    pub hierarchy: Option<StoredHierarchy>,
+    /// Per-sphere skin influences (same order as `spheres`).
+    pub skin: Option<Vec<SphereSkin>>,
+    /// Posed coverage of the skinned set.
+    pub skin_coverage: Option<SkinCoverage>,
+    /// Measured quality.
+    pub metrics: Metrics,
+    /// Report.
+    pub report: FitReport,
+}
+
+/// Everything derived from the mesh once per bake.
+struct Context {
+    frame: Frame,
+    canonical: TriMesh,
+    grid: SignedDistanceGrid,
+    winding: WindingNumber,
+    samples: Samples,
+    volume_exact: Option<f64>,
+    watertight: bool,
+    flipped: bool,
+}
+
+impl Context {
+    fn new(mesh: &TriMesh, grid_res: usize) -> Result<Self, SpheresError> {
+        if mesh.indices.is_empty() {
+            return Err(SpheresError::EmptyMesh);
+        }
+        let frame = Frame::of(mesh).ok_or(SpheresError::DegenerateBounds)?;
+        let mut canonical = frame.canonical_mesh(mesh);
+        let mut input = mesh.clone();
+        let watertight = mesh.is_watertight();
+        let mut flipped = false;
+        if watertight && canonical.signed_volume() < 0.0 {
+            for t in canonical.indices.iter_mut().chain(input.indices.iter_mut()) {
+                t.swap(1, 2);
+            }
+            flipped = true;
+        }
+        let bvh = MeshBvh::build(&canonical).map_err(|e| SpheresError::Asset(e.to_string()))?;
+        let winding = WindingNumber::new(&canonical);
+        let bounds = canonical.bounds().ok_or(SpheresError::EmptyMesh)?;
+        let spec = GridSpec::fit(&bounds, grid_res, 2);
+        let grid = SignedDistanceGrid::build(&canonical, &bvh, &winding, spec, watertight);
+        let samples = Samples::build(&canonical, &input, &frame, &grid);
+        let volume_exact = watertight.then(|| canonical.signed_volume());
+        Ok(Self { frame, canonical, grid, winding, samples, volume_exact, watertight, flipped })
+    }
+
+    fn oracle(&self) -> InsideOracle<'_> {
+        InsideOracle { grid: &self.grid, winding: &self.winding }
+    }
+}
+
+/// One fitted set in the canonical frame, with its cluster assignment when it has one.
+struct RawFit {
+    spheres: Vec<Sphere>,
+    assign: Option<Vec<u32>>,
+    log: Vec<IterationLog>,
+    iterations: usize,
+    teleports: (usize, usize),
+    octree: Option<(u32, Vec<usize>)>,
+}
+
+fn fit_count(
+    ctx: &Context,
+    model: &VolumeModel,
+    volume_model: f64,
+    p: &FitParams,
+    n: usize,
+    progress: &dyn Progress,
+) -> Result<RawFit, SpheresError> {
+    match p.method {
+        Method::Octree => {
+            let o = octree::fit(&ctx.canonical, &ctx.oracle(), n);
+            Ok(RawFit {
+                spheres: o.spheres,
+                assign: None,
+                log: Vec::new(),
+                iterations: 0,
+                teleports: (0, 0),
+                octree: Some((o.level, o.level_counts)),
+            })
+        }
+        Method::Lloyd => {
+            let ne = ctx.samples.elements.len();
+            if n > ne {
+                return Err(SpheresError::TooManySpheres { count: n, elements: ne, grid: p.grid });
+            }
+            if n == 1 {
+                // one sphere: minimising V(S) − V(T) is minimising the radius (see minball)
+                let used: Vec<[f64; 3]> = ctx.samples.points.clone();
+                let s = min_ball(&used, p.seed);
+                return Ok(RawFit {
+                    spheres: vec![s],
+                    assign: Some(vec![0; ne]),
+                    log: Vec::new(),
+                    iterations: 0,
+                    teleports: (0, 0),
+                    octree: None,
+                });
+            }
+            let mut ls = LloydSettings::new(n);
+            ls.iterations = p.iterations;
+            ls.seed = p.seed;
+            let o = lloyd::fit(&ctx.samples, model, volume_model, &ls, progress);
+            Ok(RawFit {
+                spheres: o.spheres,
+                assign: Some(o.assign),
+                log: o.log,
+                iterations: o.iterations,
+                teleports: (o.teleports_accepted, o.teleports_rejected),
+                octree: None,
+            })
+        }
+    }
+}
+
+/// Maps a canonical fit to bounding f32 spheres in input coordinates.
+fn to_input_f32(ctx: &Context, raw: &RawFit) -> Vec<[f32; 4]> {
+    let f = &ctx.frame;
+    let n = raw.spheres.len();
+    let mut out: Vec<[f32; 4]> = match &raw.assign {
+        Some(assign) => {
+            let mut pts: Vec<Vec<u32>> = vec![Vec::new(); n];
+            for (e, &c) in assign.iter().enumerate() {
+                pts[c as usize].extend_from_slice(ctx.samples.elements[e].point_ids());
+            }
+            (0..n)
+                .map(|i| {
+                    let s = &raw.spheres[i];
+                    let mut ids = std::mem::take(&mut pts[i]);
+                    ids.sort_unstable();
+                    ids.dedup();
+                    let p: Vec<[f64; 3]> = ids.iter().map(|&k| ctx.samples.input_points[k as usize]).collect();
+                    round_to_f32(&Sphere::new(f.to_input(s.center), s.radius * f.scale), &p, &[])
+                })
+                .collect()
+        }
+        None => raw
+            .spheres
+            .iter()
+            .map(|s| round_to_f32(&Sphere::new(f.to_input(s.center), s.radius * f.scale), &[], &[]))
+            .collect(),
+    };
+    // repair: any sample point outside every sphere enlarges the nearest one (only rounding of
+    // the canonical frame can cause this, e.g. for the octree's cell spheres)
+    let spheres: Vec<Sphere> = out.iter().map(|&v| from_f32(v)).collect();
+    let mut extra: Vec<Vec<[f64; 3]>> = vec![Vec::new(); n];
+    for q in &ctx.samples.input_points {
+        if !spheres.iter().any(|s| s.contains(*q)) {
+            let k = (0..n)
+                .min_by(|&a, &b| spheres[a].signed_distance(*q).total_cmp(&spheres[b].signed_distance(*q)))
+                .unwrap_or(0);
+            extra[k].push(*q);
+        }
+    }
+    for k in 0..n {
+        if !extra[k].is_empty() {
+            let s = from_f32(out[k]);
+            out[k] = round_to_f32(&s, &extra[k], &[]);
+        }
+    }
+    out
+}
+
+/// Rounds a hierarchy to f32 bottom-up so that every stored parent bounds its stored children.
+fn store_hierarchy(h: &Hierarchy, leaves: &[[f32; 4]]) -> StoredHierarchy {
+    let depth = h.depth();
+    let mut levels: Vec<Vec<[f32; 4]>> = vec![Vec::new(); depth];
+    let mut below: Vec<[f32; 4]> = leaves.to_vec();
+    for l in (0..depth).rev() {
+        let kids: Vec<Sphere> = below.iter().map(|&v| from_f32(v)).collect();
+        levels[l] = h.levels[l]
+            .iter()
+            .zip(&h.children[l])
+            .map(|(s, &(first, count))| round_to_f32(s, &[], &kids[first as usize..(first + count) as usize]))
+            .collect();
+        below = levels[l].clone();
+    }
+    StoredHierarchy { levels, children: h.children.clone() }
+}
+
+/// Runs the bake on a loaded scene (the rest-pose mesh is `scene.mesh`).
+pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitResult, SpheresError> {
+    p.validate()?;
+    if p.skin && !scene.is_skinned() {
+        return Err(skin::SkinError::NotSkinned.into());
+    }
+    let t0 = Instant::now();
+    progress.update("grid", 0, 1);
+    let ctx = Context::new(&scene.mesh, p.grid)?;
+    let model = VolumeModel::new(&ctx.grid, p.seed);
+    let volume_model = ctx.grid.soft_volume();
+    let oracle = ctx.oracle();
+    let (volume_t, volume_exact) = metrics::volume_of_t(&ctx.grid, &oracle, ctx.volume_exact, p.metrics.seed);
+    progress.update("grid", 1, 1);
+    let setup_seconds = t0.elapsed().as_secs_f64();
+
+    let t1 = Instant::now();
+    let measure = |stored: &[[f32; 4]]| -> Metrics {
+        let input: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
+        let canon: Vec<Sphere> =
+            input.iter().map(|s| Sphere::new(ctx.frame.to_canonical(s.center), s.radius / ctx.frame.scale)).collect();
+        let to_input = |q: [f64; 3]| ctx.frame.to_input(q);
+        metrics::measure(
+            &canon,
+            &oracle,
+            volume_t,
+            volume_exact,
+            &ctx.samples.input_points,
+            &input,
+            &to_input,
+            ctx.frame.scale,
+            &p.metrics,
+        )
+    };
+    let mut search = Vec::new();
+    let (raw, mut stored, n_req) = match p.target {
+        Target::Count(n) => {
+            let raw = fit_count(&ctx, &model, volume_model, p, n, progress)?;
+            let stored = to_input_f32(&ctx, &raw);
+            (raw, stored, n)
+        }
+        Target::Error(target) => {
+            // doubling, then bisection on the measured E
+            let max_n = MAX_COUNT.min(ctx.samples.elements.len());
+            let mut lo = 0usize; // largest count known to miss the target
+            let mut n = 1usize;
+            let (mut raw, mut stored, mut hi) = loop {
+                let raw = fit_count(&ctx, &model, volume_model, p, n, progress)?;
+                let stored = to_input_f32(&ctx, &raw);
+                let e = measure(&stored).outside_volume_ratio;
+                search.push((raw.spheres.len(), e));
+                if e <= target || n >= max_n {
+                    break (raw, stored, n);
+                }
+                lo = n;
+                n = (2 * n).min(max_n);
+            };
+            while hi - lo > 1.max(lo / 8) && search.last().is_some_and(|x| x.1 <= target) {
+                let mid = lo + (hi - lo) / 2;
+                let r = fit_count(&ctx, &model, volume_model, p, mid, progress)?;
+                let s = to_input_f32(&ctx, &r);
+                let e = measure(&s).outside_volume_ratio;
+                search.push((r.spheres.len(), e));
+                if e <= target {
+                    raw = r;
+                    stored = s;
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            (raw, stored, hi)
+        }
+    };
+    let fit_seconds = t1.elapsed().as_secs_f64();
+
+    let t2 = Instant::now();
+    progress.update("finish", 0, 3);
+    let model_e = raw.spheres.iter().map(|s| model.outside_volume(s.center, s.radius)).sum::<f64>()
+        / volume_model.max(f64::MIN_POSITIVE);
+    let mut hierarchy = None;
+    if p.hierarchy && stored.len() > 1 {
+        let leaves: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
+        let h = hierarchy::build(&leaves, p.seed);
+        stored = h.leaf_order.iter().map(|&i| stored[i as usize]).collect();
+        hierarchy = Some(store_hierarchy(&h, &stored));
+    }
+    progress.update("finish", 1, 3);
+    let (skin_w, skin_cov) = if p.skin {
+        let leaves: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
+        let centers: Vec<[f64; 3]> = leaves.iter().map(|s| s.center).collect();
+        let w = skin::sphere_skins(scene, &centers)?;
+        let cov = skin::coverage(scene, &leaves, &w, 1e-6 * ctx.frame.scale)?;
+        (Some(w), Some(cov))
+    } else {
+        (None, None)
+    };
+    progress.update("finish", 2, 3);
+    let metrics = measure(&stored);
+    progress.update("finish", 3, 3);
+    let spec = ctx.grid.spec();
+    let report = FitReport {
+        method: p.method,
+        count: stored.len(),
+        requested_count: n_req,
+        iterations: raw.iterations,
+        teleports_accepted: raw.teleports.0,
+        teleports_rejected: raw.teleports.1,
+        log: raw.log,
+        search,
+        octree_level: raw.octree.as_ref().map(|o| o.0),
+        octree_level_counts: raw.octree.map(|o| o.1).unwrap_or_default(),
+        grid_nodes: spec.nodes,
+        grid_spacing: spec.h * ctx.frame.scale,
+        surface_elements: ctx.samples.surface_elements,
+        interior_points: ctx.samples.elements.len() - ctx.samples.surface_elements,
+        watertight: ctx.watertight,
+        flipped_orientation: ctx.flipped,
+        model_outside_volume_ratio: model_e,
+        setup_seconds,
+        fit_seconds,
+        finish_seconds: t2.elapsed().as_secs_f64(),
+    };
+    Ok(FitResult { spheres: stored, hierarchy, skin: skin_w, skin_coverage: skin_cov, metrics, report })
+}
