@@ -7,6 +7,7 @@ mod compat;
 mod inspect;
 mod runtime;
 mod shadows;
+mod spheres;
 mod tables;
 
 use assert_cmd::Command;

@@ -113,15 +113,29 @@ fn locate(source: &str, key: &str) -> Option<usize> {
     let doc = toml_edit::Document::parse(source.to_string()).ok()?;
     let mut item: &toml_edit::Item = doc.as_item();
     let mut best = None;
-    for part in key.split('.') {
-        match item.get(part) {
-            Some(next) => {
-                item = next;
-                if let Some(sp) = item.span() {
-                    best = Some(sp.start);
-                }
+    // `spheres[1].count` → "spheres", 1, "count"
+    'walk: for part in key.split('.') {
+        let (name, indices) = part.split_once('[').map_or((part, ""), |(n, rest)| (n, rest));
+        let mut steps: Vec<Result<usize, &str>> = vec![Err(name)];
+        for ix in indices.split('[') {
+            if let Ok(i) = ix.trim_end_matches(']').parse::<usize>() {
+                steps.push(Ok(i));
             }
-            None => break,
+        }
+        for st in steps {
+            let next = match st {
+                Err(n) => item.get(n),
+                Ok(i) => item.get(i),
+            };
+            match next {
+                Some(next) => {
+                    item = next;
+                    if let Some(sp) = item.span() {
+                        best = Some(sp.start);
+                    }
+                }
+                None => break 'walk,
+            }
         }
     }
     best.or(Some(0))

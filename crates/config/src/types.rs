@@ -13,13 +13,16 @@ pub struct BakeConfig {
     /// SH log/exp and proxy tables (`penumbra tables`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tables: Option<TablesStage>,
+    /// Bounding sphere sets, one per entry (`penumbra spheres`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub spheres: Vec<SpheresStage>,
 }
 
 impl BakeConfig {
     /// Whether the config names at least one stage. Every stage added to the config is
     /// listed here.
     pub fn has_stage(&self) -> bool {
-        self.tables.is_some()
+        self.tables.is_some() || !self.spheres.is_empty()
     }
 }
 
@@ -47,5 +50,66 @@ impl TablesStage {
     /// Output file name.
     pub fn output_name(&self) -> &str {
         self.output.as_deref().unwrap_or("tables.shtb")
+    }
+}
+
+/// Sphere-fitting method of a `[[spheres]]` entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum SphereMethod {
+    /// Variational fit: flood-fill clustering, Powell, teleportation (SHEXP §6.2).
+    Lloyd,
+    /// Baseline: spheres around the occupied cells of an octree level (Hubbard 1995).
+    Octree,
+}
+
+/// A `[[spheres]]` entry: a bounding sphere set for one mesh (SHEXP §6.2–6.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SpheresStage {
+    /// Mesh file (.obj, .gltf, .glb), relative to this config.
+    pub mesh: String,
+    /// Number of spheres, 1..=4096 (give this or `target_error`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub count: Option<u32>,
+    /// Fit the smallest count whose outside volume ratio E is at most this (> 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_error: Option<f64>,
+    /// `lloyd` (default) or `octree`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<SphereMethod>,
+    /// Grid resolution, 8..=256 (default 48).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<u32>,
+    /// Maximum iterations, 1..=10000 (default 100).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iterations: Option<u32>,
+    /// Seed (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Build the sphere hierarchy (default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hierarchy: Option<bool>,
+    /// Compute skin weights for a skinned glTF (default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skin: Option<bool>,
+    /// Fit only the glTF node(s) with this name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_name: Option<String>,
+    /// Output file name inside `output_dir` (default: the mesh's file stem + `.sphr`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+}
+
+impl SpheresStage {
+    /// Output file name.
+    pub fn output_name(&self) -> String {
+        match &self.output {
+            Some(o) => o.clone(),
+            None => {
+                let stem = std::path::Path::new(&self.mesh).file_stem().map(|s| s.to_string_lossy().into_owned());
+                format!("{}.sphr", stem.unwrap_or_else(|| "spheres".into()))
+            }
+        }
     }
 }

@@ -51,6 +51,48 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
             }
         }
     }
+    let mut outputs: Vec<String> = Vec::new();
+    for (i, sp) in c.spheres.iter().enumerate() {
+        let key = |k: &str| format!("spheres[{i}].{k}");
+        if sp.mesh.trim().is_empty() {
+            out.push(issue(&key("mesh"), "must not be empty"));
+        }
+        match (sp.count, sp.target_error) {
+            (Some(_), Some(_)) | (None, None) => {
+                out.push(issue(&format!("spheres[{i}]"), "give exactly one of `count` or `target_error`"))
+            }
+            (Some(n), None) if !(1..=4096).contains(&n) => {
+                out.push(issue(&key("count"), format!("{n} is out of range (allowed: 1..=4096)")))
+            }
+            (None, Some(e)) if !(e > 0.0 && e.is_finite()) => {
+                out.push(issue(&key("target_error"), format!("{e} is out of range (allowed: a positive number)")))
+            }
+            _ => {}
+        }
+        if let Some(g) = sp.grid {
+            if !(8..=256).contains(&g) {
+                out.push(issue(&key("grid"), format!("{g} is out of range (allowed: 8..=256)")));
+            }
+        }
+        if let Some(it) = sp.iterations {
+            if !(1..=10000).contains(&it) {
+                out.push(issue(&key("iterations"), format!("{it} is out of range (allowed: 1..=10000)")));
+            }
+        }
+        if let Some(o) = &sp.output {
+            if !plain_file_name(o) {
+                out.push(issue(&key("output"), format!("{o:?} must be a plain file name (no directories)")));
+            }
+        }
+        let name = sp.output_name();
+        if outputs.contains(&name) {
+            out.push(issue(
+                &key("output"),
+                format!("{name:?} is already written by another [[spheres]] entry; set `output`"),
+            ));
+        }
+        outputs.push(name);
+    }
     if !c.has_stage() {
         out.push(issue("stages", "the config names no stage to bake (add a stage table such as [tables])"));
     }

@@ -82,3 +82,30 @@ fn schema_denies_unknown_fields() {
     assert_eq!(v["additionalProperties"], serde_json::Value::Bool(false));
     assert!(s.contains("\"order\""));
 }
+
+#[test]
+fn spheres_entries_are_validated_with_their_index() {
+    let ok = penumbra_config::parse_str(
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"a.obj\"\ncount = 8\n[[spheres]]\nmesh = \"b.glb\"\ntarget_error = 0.5\nmethod = \"octree\"\n",
+        std::path::Path::new("c.toml"),
+    )
+    .unwrap();
+    assert_eq!(ok.spheres.len(), 2);
+    assert_eq!(ok.spheres[1].output_name(), "b.sphr");
+    assert_eq!(ok.spheres[1].method, Some(penumbra_config::SphereMethod::Octree));
+    let e = err(
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"a.obj\"\ncount = 8\n[[spheres]]\nmesh = \"b.obj\"\ncount = 0\n",
+    );
+    assert_eq!(e.key, "spheres[1].count");
+    assert_eq!(e.line, Some(7));
+    let e = err("output_dir = \"out\"\n[[spheres]]\nmesh = \"a.obj\"\n");
+    assert_eq!(e.key, "spheres[0]");
+    assert!(e.message.contains("exactly one of"), "{}", e.message);
+    let e = err(
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"a.obj\"\ncount = 8\n[[spheres]]\nmesh = \"x/a.obj\"\ncount = 4\n",
+    );
+    assert_eq!(e.key, "spheres[1].output");
+    let e = err("output_dir = \"out\"\n[[spheres]]\nmesh = \"a.obj\"\ncount = 8\nmethod = \"voxel\"\n");
+    assert_eq!(e.key, "spheres[0].method");
+    assert_eq!(e.line, Some(5));
+}

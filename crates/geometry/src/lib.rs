@@ -30,7 +30,7 @@
 //!
 //! ## Modules
 //! - [`mesh`]: [`TriMesh`], bounds, area, volume, watertightness, cleaning.
-//! - [`import`]: [`load_mesh`] (dispatch by extension), OBJ and glTF loaders.
+//! - [`import`]: [`load_mesh`] (dispatch by extension), OBJ and glTF loaders; [`export`]: OBJ text.
 //! - [`scene`]: node hierarchy, skins, animations, linear blend skinning ([`Scene::pose`]).
 //! - [`bvh`]: [`MeshBvh`] (obvhs CWBVH + exact watertight f64 tests): closest hit, any hit,
 //!   closest point; brute-force references.
@@ -46,6 +46,7 @@ pub mod bvh;
 mod bvh_tests;
 pub mod env;
 pub mod error;
+pub mod export;
 pub mod import;
 pub mod inside;
 mod kernels;

@@ -12,6 +12,9 @@
 //!   (sample points: vertices, subdivision points, interior nodes; and the Monte-Carlo points)
 //!   to the union, in input units; 0 for a bounding fit.
 //!
+//! Ratios are NaN (`null` in JSON) for meshes without volume (V(T) < 10⁻¹² of the canonical
+//! unit-diagonal box), such as a flat open sheet.
+//!
 //! All random points come from the seeded hash RNG; results do not depend on thread count.
 
 use rayon::prelude::*;
@@ -156,7 +159,8 @@ pub fn measure(
             (v * (1.0 - p), v * v * p * (1.0 - p) / n as f64)
         })
         .collect();
-    let vt = volume_t.max(f64::MIN_POSITIVE);
+    // a mesh without volume (a flat sheet) has no meaningful ratios: NaN, printed as null
+    let vt = if volume_t > 1e-12 { volume_t } else { f64::NAN };
     let outside: f64 = per.iter().map(|x| x.0).sum();
     let var: f64 = per.iter().map(|x| x.1).sum();
     // union / uncovered by Monte Carlo in the joint bounding box

@@ -12,8 +12,9 @@ use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Stage names in execution order; a stage's index is its work-item index for `--shard`.
-pub const STAGES: &[&str] = &["tables"];
+/// Stage names in execution order. Every configured entry of a stage is one work item;
+/// `--shard K/N` runs the items whose index (in this order) is K mod N.
+pub const STAGES: &[&str] = &["tables", "spheres"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -90,19 +91,84 @@ fn run_tables(
     })
 }
 
+fn run_spheres(
+    cfg: &penumbra_config::LoadedConfig,
+    index: usize,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    use penumbra_spheres::fit::{FitParams, Target};
+    let sp = &cfg.config.spheres[index];
+    let mesh = cfg.resolve(&sp.mesh);
+    if !mesh.is_file() {
+        return Err(CliError::input(anyhow!(
+            "{}: `spheres[{index}].mesh`: mesh {} does not exist",
+            cfg.path.display(),
+            mesh.display()
+        )));
+    }
+    let target = match (sp.count, sp.target_error) {
+        (Some(n), _) => Target::Count(n as usize),
+        (None, Some(e)) => Target::Error(e),
+        (None, None) => return Err(CliError::internal(anyhow!("spheres[{index}] has no target (validated config)"))),
+    };
+    let mut params = FitParams::new(target);
+    params.method = match sp.method.unwrap_or(penumbra_config::SphereMethod::Lloyd) {
+        penumbra_config::SphereMethod::Lloyd => penumbra_spheres::Method::Lloyd,
+        penumbra_config::SphereMethod::Octree => penumbra_spheres::Method::Octree,
+    };
+    params.grid = sp.grid.map_or(params.grid, |g| g as usize);
+    params.iterations = sp.iterations.map_or(params.iterations, |i| i as usize);
+    params.seed = sp.seed.unwrap_or(params.seed);
+    params.metrics.seed = params.seed;
+    params.hierarchy = sp.hierarchy.unwrap_or(false);
+    params.skin = sp.skin.unwrap_or(false);
+    let job = super::spheres::SpheresJob {
+        mesh: mesh.clone(),
+        mesh_name: sp.mesh_name.clone(),
+        params,
+        output: out_dir.join(sp.output_name()),
+    };
+    let key = super::spheres::cache_key(&job, &crate::fsutil::hash_file(&mesh)?);
+    let start = Instant::now();
+    let name = format!("spheres[{index}]");
+    if !force {
+        if let Some((existing, metrics)) = existing_cache_key(&job.output) {
+            if existing == key {
+                return Ok(StageReport {
+                    value: json!({
+                        "name": name, "kind": "SPHR", "status": "up-to-date",
+                        "output": job.output.display().to_string(), "cache_key": key,
+                        "bytes": std::fs::metadata(&job.output).map(|m| m.len()).unwrap_or(0),
+                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
+                    }),
+                });
+            }
+        }
+    }
+    let o = super::spheres::bake_to(&job, mode)?;
+    Ok(StageReport {
+        value: json!({
+            "name": name, "kind": "SPHR", "status": "baked",
+            "output": job.output.display().to_string(), "cache_key": key,
+            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
+        }),
+    })
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let start = Instant::now();
     let cfg = penumbra_config::load(&a.config).map_err(CliError::input)?;
-    let configured: Vec<&str> = STAGES
-        .iter()
-        .copied()
-        .filter(|s| match *s {
-            "tables" => cfg.config.tables.is_some(),
-            _ => false,
-        })
-        .collect();
+    // work items: (stage, entry index)
+    let mut items: Vec<(&str, usize)> = Vec::new();
+    if cfg.config.tables.is_some() {
+        items.push(("tables", 0));
+    }
+    items.extend((0..cfg.config.spheres.len()).map(|i| ("spheres", i)));
+    let configured: Vec<&str> = STAGES.iter().copied().filter(|s| items.iter().any(|(n, _)| n == s)).collect();
     if let Some(only) = &a.only {
         if !STAGES.contains(&only.as_str()) {
             return Err(CliError::input(anyhow!("--only {only:?}: unknown stage (stages: {})", STAGES.join(", "))));
@@ -117,9 +183,10 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
 
     let mut stages = Vec::new();
-    for (item, name) in configured.iter().enumerate() {
-        let skip = |status: &str| json!({"name": name, "status": status});
-        if a.only.as_deref().is_some_and(|o| o != *name) {
+    for (item, &(name, index)) in items.iter().enumerate() {
+        let label = if name == "tables" { name.to_string() } else { format!("{name}[{index}]") };
+        let skip = |status: &str| json!({"name": label, "status": status});
+        if a.only.as_deref().is_some_and(|o| o != name) {
             stages.push(skip("skipped-by-only"));
             continue;
         }
@@ -129,14 +196,15 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 continue;
             }
         }
-        let r = match *name {
+        let r = match name {
             "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
+            "spheres" => run_spheres(&cfg, index, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {
             eprintln!(
-                "{:<8} {:<10} {} ({:.2} s)",
-                name,
+                "{:<11} {:<10} {} ({:.2} s)",
+                label,
                 r.value["status"].as_str().unwrap_or(""),
                 r.value["output"].as_str().unwrap_or(""),
                 r.value["seconds"].as_f64().unwrap_or(0.0)

@@ -1,0 +1,204 @@
+//! The sphere-set bake on procedural meshes: bounding, known answers, invariances,
+//! determinism, monotone E, and the quality ratio against the octree baseline.
+
+use penumbra_geometry::procedural::{aabb_box, character, icosphere, torus};
+use penumbra_geometry::{Scene, TriMesh};
+use penumbra_math::progress::NoProgress;
+use penumbra_math::rng::{hash4, unit_f64};
+use penumbra_spheres::fit::{FitParams, FitResult, Method, Target};
+use penumbra_spheres::minball::min_ball;
+use penumbra_spheres::sphere::{Sphere, from_f32};
+
+fn scene(mesh: TriMesh) -> Scene {
+    Scene { mesh, ..Scene::default() }
+}
+
+fn params(n: usize, method: Method) -> FitParams {
+    let mut p = FitParams::new(Target::Count(n));
+    p.method = method;
+    p.grid = 32;
+    p.iterations = 30;
+    p.metrics.union_samples = 1 << 17;
+    p.metrics.per_sphere_samples = 1024;
+    p
+}
+
+fn run(mesh: &TriMesh, p: &FitParams) -> FitResult {
+    penumbra_spheres::fit(&scene(mesh.clone()), p, &NoProgress).expect("fit")
+}
+
+/// Every vertex, and dense barycentric samples of every triangle, lie in a stored sphere
+/// (evaluated in f64 from the f32 values).
+fn assert_bounding(mesh: &TriMesh, r: &FitResult) {
+    let spheres: Vec<Sphere> = r.spheres.iter().map(|&v| from_f32(v)).collect();
+    let covered = |p: [f64; 3]| spheres.iter().any(|s| s.contains(p));
+    for (i, p) in mesh.positions.iter().enumerate() {
+        assert!(covered(*p), "vertex {i} {p:?} is outside every sphere");
+    }
+    for t in 0..mesh.triangle_count() {
+        let [a, b, c] = mesh.triangle(t);
+        for k in 0..6u64 {
+            let (mut u, mut v) = (unit_f64(hash4(1, t as u64, k, 0)), unit_f64(hash4(1, t as u64, k, 1)));
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let p: [f64; 3] = std::array::from_fn(|d| a[d] + u * (b[d] - a[d]) + v * (c[d] - a[d]));
+            assert!(covered(p), "triangle {t}: surface point {p:?} is outside every sphere");
+        }
+    }
+    assert_eq!(r.metrics.uncovered_sample_points, 0);
+    assert!(r.metrics.max_uncovered_distance <= 1e-6 * mesh.bounds().unwrap().diagonal());
+    assert!(r.spheres.iter().flatten().all(|x| x.is_finite()));
+}
+
+#[test]
+fn lloyd_and_octree_fits_bound_the_surface() {
+    for mesh in [torus(1.0, 0.3, 32, 16), character(28), aabb_box([0.0; 3], [2.0, 1.0, 0.5])] {
+        for method in [Method::Lloyd, Method::Octree] {
+            let r = run(&mesh, &params(12, method));
+            assert_bounding(&mesh, &r);
+            assert!(r.metrics.uncovered_ratio < 1e-3, "{method:?}: {}", r.metrics.uncovered_ratio);
+            assert!(r.metrics.outside_volume_ratio.is_finite() && r.metrics.outside_volume_ratio > 0.0);
+        }
+    }
+}
+
+#[test]
+fn one_sphere_is_the_minimal_enclosing_ball() {
+    // icosphere vertices lie on the unit sphere: the minimal ball is the unit ball
+    let mesh = icosphere(2, 1.0, [0.3, -0.2, 0.1]);
+    let r = run(&mesh, &params(1, Method::Lloyd));
+    let s = from_f32(r.spheres[0]);
+    assert!((s.radius - 1.0).abs() < 1e-6, "{s:?}");
+    assert!((0..3).all(|d| (s.center[d] - [0.3, -0.2, 0.1][d]).abs() < 1e-6), "{s:?}");
+    // a box: half the diagonal, independent of Welzl's answer on the vertices
+    let b = aabb_box([0.0; 3], [3.0, 2.0, 1.0]);
+    let r = run(&b, &params(1, Method::Lloyd));
+    let s = from_f32(r.spheres[0]);
+    assert!((s.radius - 14f64.sqrt() / 2.0).abs() < 1e-6, "{s:?}");
+    let w = min_ball(&b.positions, 9);
+    assert!((w.radius - s.radius).abs() < 1e-6);
+}
+
+#[test]
+fn scaled_meshes_give_the_same_fit_up_to_scale() {
+    let base = character(24);
+    let p = params(10, Method::Lloyd);
+    let r1 = run(&base, &p);
+    for scale in [1e-4, 1e4] {
+        let mut m = base.clone();
+        m.map_positions(|q| q.map(|x| x * scale));
+        let r = run(&m, &p);
+        assert_eq!(r.spheres.len(), r1.spheres.len());
+        for (a, b) in r.spheres.iter().zip(&r1.spheres) {
+            for k in 0..4 {
+                let (x, y) = (a[k] as f64 / scale, b[k] as f64);
+                assert!((x - y).abs() <= 1e-5 * (1.0 + y.abs()), "scale {scale}: {a:?} vs {b:?}");
+            }
+        }
+        assert!((r.metrics.outside_volume_ratio - r1.metrics.outside_volume_ratio).abs() < 1e-3);
+    }
+}
+
+#[test]
+fn needle_and_flat_meshes_fit_without_nan() {
+    let needle = aabb_box([0.0; 3], [100.0, 1.0, 1.0]);
+    let mut p = params(8, Method::Lloyd);
+    p.grid = 16;
+    let r = run(&needle, &p);
+    assert_bounding(&needle, &r);
+    assert!(r.metrics.outside_volume_ratio.is_finite());
+    // spheres along a needle are small: far below the needle's half length
+    assert!(r.spheres.iter().all(|s| s[3] < 20.0), "{:?}", r.spheres);
+    // a flat, open square has no volume: its ratios are NaN (null in JSON), but the fit bounds it
+    let flat = penumbra_geometry::procedural::grid(6);
+    let r = run(&flat, &p);
+    assert_bounding(&flat, &r);
+    assert!(r.metrics.outside_volume_ratio.is_nan() && r.metrics.union_outside_ratio.is_nan());
+}
+
+#[test]
+fn same_result_for_any_thread_count() {
+    let mesh = character(24);
+    let mut p = params(9, Method::Lloyd);
+    p.hierarchy = true;
+    let go = |threads: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| run(&mesh, &p))
+    };
+    let (a, b, c) = (go(1), go(2), go(2));
+    assert_eq!(a.spheres, b.spheres);
+    assert_eq!(b.spheres, c.spheres);
+    assert_eq!(a.hierarchy, b.hierarchy);
+    assert_eq!(a.metrics, b.metrics);
+}
+
+#[test]
+fn outside_volume_never_increases_over_iterations() {
+    let mesh = character(28);
+    let r = run(&mesh, &params(16, Method::Lloyd));
+    let log = &r.report.log;
+    assert!(log.len() >= 3, "{log:?}");
+    for w in log.windows(2) {
+        assert!(w[1].e <= w[0].e, "E rose: {w:?}");
+    }
+    assert!(log.last().unwrap().e < 0.9 * log[0].e, "the fit improved on its start: {log:?}");
+    for l in log {
+        assert!(l.accepted == (l.e == l.candidate_e) || !l.accepted);
+    }
+}
+
+#[test]
+fn lloyd_union_ratio_beats_the_octree_at_equal_count() {
+    let mesh = character(32);
+    let oct = run(&mesh, &params(24, Method::Octree));
+    let n = oct.spheres.len();
+    let lloyd = run(&mesh, &params(n, Method::Lloyd));
+    assert_eq!(lloyd.spheres.len(), n);
+    assert!(
+        lloyd.metrics.union_outside_ratio * 2.0 < oct.metrics.union_outside_ratio,
+        "{n} spheres: lloyd {} vs octree {}",
+        lloyd.metrics.union_outside_ratio,
+        oct.metrics.union_outside_ratio
+    );
+}
+
+#[test]
+fn target_error_finds_a_count_meeting_it() {
+    let mesh = torus(1.0, 0.3, 24, 12);
+    let mut p = params(1, Method::Lloyd);
+    p.grid = 20;
+    p.iterations = 12;
+    p.target = Target::Error(0.6);
+    let r = run(&mesh, &p);
+    assert!(
+        r.metrics.outside_volume_ratio <= 0.6 + 3.0 * r.metrics.outside_volume_ratio_stderr,
+        "{:?}",
+        r.report.search
+    );
+    // the search really went through smaller counts that missed it
+    assert!(r.report.search.iter().any(|&(n, e)| n < r.spheres.len() && e > 0.6), "{:?}", r.report.search);
+}
+
+#[test]
+fn metrics_agree_with_an_analytic_case() {
+    // one sphere around a unit cube (bounding radius √3/2): E = (V_ball − 1)/1 exactly, and the
+    // union ratio is the same (one sphere); the measurement must find it within its stderr
+    let cube = aabb_box([0.0; 3], [1.0; 3]);
+    let mut p = params(1, Method::Lloyd);
+    p.metrics.per_sphere_samples = 1 << 15;
+    p.metrics.union_samples = 1 << 19;
+    let r = run(&cube, &p);
+    let exact = 4.0 / 3.0 * std::f64::consts::PI * (3f64.sqrt() / 2.0).powi(3) - 1.0;
+    let m = &r.metrics;
+    assert!(
+        (m.outside_volume_ratio - exact).abs() < 4.0 * m.outside_volume_ratio_stderr + 1e-4,
+        "{} vs {exact}",
+        m.outside_volume_ratio
+    );
+    assert!(
+        (m.union_outside_ratio - exact).abs() < 4.0 * m.union_outside_ratio_stderr + 1e-4,
+        "{} vs {exact}",
+        m.union_outside_ratio
+    );
+    assert!(m.volume_exact && (m.volume - 1.0).abs() < 1e-9);
+}

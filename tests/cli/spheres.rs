@@ -1,0 +1,226 @@
+use crate::{listing, penumbra, run, shared_data};
+use penumbra_asset::AssetFile;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn character() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("bake-configs/assets/character.obj")
+}
+
+/// A small, quick fit of the demo character.
+fn fit(out: &Path, extra: &[&str]) -> (i32, String, String) {
+    let mut c = penumbra();
+    c.arg("spheres").arg(character()).args(["--grid", "20", "--iterations", "8"]).args(extra).arg("-o").arg(out);
+    run(&mut c)
+}
+
+#[test]
+fn committed_demo_character_is_what_the_generator_writes() {
+    let committed = std::fs::read_to_string(character()).unwrap();
+    assert!(
+        committed == penumbra_geometry::procedural::demo_character_obj(),
+        "bake-configs/assets/character.obj is stale: run `cargo run -p penumbra-geometry --example demo_character > bake-configs/assets/character.obj`"
+    );
+}
+
+#[test]
+fn spheres_json_has_the_issue_keys_with_honest_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.sphr");
+    let (code, stdout, stderr) = fit(&out, &["--count", "12", "--hierarchy", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    for k in [
+        "count",
+        "outside_volume_ratio",
+        "union_outside_ratio",
+        "uncovered_ratio",
+        "max_uncovered_distance",
+        "iterations",
+        "hierarchy_levels",
+        "skin_coverage_min",
+        "seconds",
+        "output",
+    ] {
+        assert!(v.get(k).is_some(), "missing key {k}: {stdout}");
+    }
+    assert_eq!(v["count"], 12);
+    let e = v["outside_volume_ratio"].as_f64().unwrap();
+    let u = v["union_outside_ratio"].as_f64().unwrap();
+    // overlaps are counted once in the union, every time in E
+    assert!(u > 0.0 && u <= e + 4.0 * v["outside_volume_ratio_stderr"].as_f64().unwrap(), "{u} vs {e}");
+    assert_eq!(v["max_uncovered_distance"].as_f64().unwrap(), 0.0);
+    assert!(v["uncovered_ratio"].as_f64().unwrap() < 1e-3);
+    assert_eq!(v["hierarchy_levels"], 3, "12 leaves → 3 → 1");
+    assert!(v["skin_coverage_min"].is_null());
+    assert_eq!(v["output"].as_str().unwrap(), out.display().to_string());
+    // the asset holds what the JSON says
+    let file = AssetFile::open(&out).unwrap();
+    let a = file.asset();
+    let s = a.section("spheres").unwrap();
+    assert_eq!(s.dims(), &[12, 4]);
+    assert_eq!(a.section("hierarchy_levels").unwrap().dims(), &[2, 2]);
+    let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
+    assert_eq!(meta["kind"], "SPHR");
+    assert!(
+        meta["metrics"].get("seconds").is_none() && meta["metrics"].get("fit_seconds").is_none(),
+        "no durations in meta"
+    );
+    assert_eq!(meta["metrics"]["outside_volume_ratio"], v["outside_volume_ratio"]);
+}
+
+#[test]
+fn spheres_bytes_do_not_depend_on_threads_or_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = Vec::new();
+    for (i, threads) in ["1", "2", "2"].iter().enumerate() {
+        let out = dir.path().join(format!("c{i}.sphr"));
+        let mut c = penumbra();
+        c.args(["--threads", threads, "spheres"])
+            .arg(character())
+            .args(["--count", "10", "--grid", "20", "--iterations", "6", "--hierarchy", "-o"])
+            .arg(&out);
+        let (code, _, stderr) = run(&mut c);
+        assert_eq!(code, 0, "{stderr}");
+        bytes.push(std::fs::read(&out).unwrap());
+    }
+    assert!(
+        bytes[0] == bytes[1] && bytes[1] == bytes[2],
+        "SPHR bytes differ between --threads 1 and 2 or between runs"
+    );
+}
+
+#[test]
+fn octree_baseline_and_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.sphr");
+    let (code, stdout, stderr) = fit(&out, &["--count", "20", "--method", "octree", "--hierarchy", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let n = v["count"].as_u64().unwrap() as usize;
+    assert!(v["octree_level"].as_u64().is_some());
+    assert!(n > 5 && n < 80, "about the requested count: {n}");
+    // export: one 80-triangle icosphere (42 vertices) per sphere
+    let obj = dir.path().join("o.obj");
+    let (code, _, stderr) =
+        run(penumbra().args(["spheres", "export"]).arg(&out).arg("--obj").arg(&obj).args(["--subdivisions", "1"]));
+    assert_eq!(code, 0, "{stderr}");
+    let text = std::fs::read_to_string(&obj).unwrap();
+    assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), 42 * n);
+    assert_eq!(text.lines().filter(|l| l.starts_with("f ")).count(), 80 * n);
+    // a hierarchy level, and a level that does not exist
+    let (code, _, _) =
+        run(penumbra().args(["spheres", "export"]).arg(&out).arg("--obj").arg(&obj).args(["--level", "0"]));
+    assert_eq!(code, 0);
+    assert_eq!(std::fs::read_to_string(&obj).unwrap().lines().filter(|l| l.starts_with("o ")).count(), 1);
+    let (code, _, stderr) =
+        run(penumbra().args(["spheres", "export"]).arg(&out).arg("--obj").arg(&obj).args(["--level", "99"]));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("out of range"), "{stderr}");
+}
+
+#[test]
+fn bad_spheres_input_exits_2_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.sphr");
+    let missing = dir.path().join("missing.obj");
+    let (code, _, stderr) = run(penumbra().arg("spheres").arg(&missing).args(["--count", "4", "-o"]).arg(&out));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("missing.obj"), "{stderr}");
+    let (code, _, _) = fit(&out, &["--count", "0"]);
+    assert_eq!(code, 2);
+    let (code, _, _) = fit(&out, &["--count", "4", "--target-error", "0.5"]);
+    assert_eq!(code, 2);
+    let (code, _, stderr) = fit(&out, &["--count", "4", "--skin"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("no skin"), "{stderr}");
+    let (code, _, stderr) = fit(&out, &["--count", "4", "--mesh-name", "torso"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("character.obj") && stderr.contains("torso"), "{stderr}");
+    assert_eq!(listing(dir.path()), Vec::<String>::new(), "no output or temp file after a failure");
+}
+
+#[test]
+fn every_bad_corpus_file_fails_cleanly_or_fits() {
+    let Some(data) = shared_data() else { return };
+    let root = data.join("bad");
+    let mut files = Vec::new();
+    let mut stack = vec![root.clone()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if matches!(
+                p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
+                Some("obj" | "gltf" | "glb" | "ply" | "stl" | "off")
+            ) {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    assert!(files.len() > 20, "{} mesh files", files.len());
+    let dir = tempfile::tempdir().unwrap();
+    let (mut ok, mut rejected) = (0, 0);
+    for f in &files {
+        let out = dir.path().join("bad.sphr");
+        let (code, _, stderr) = run(penumbra()
+            .arg("spheres")
+            .arg(f)
+            .args(["--count", "4", "--grid", "12", "--iterations", "3", "-o"])
+            .arg(&out));
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        match code {
+            0 => {
+                ok += 1;
+                assert!(AssetFile::open(&out).is_ok(), "{name}: exit 0 but no valid asset");
+                std::fs::remove_file(&out).unwrap();
+            }
+            2 => {
+                rejected += 1;
+                assert!(stderr.contains(&name), "{name}: the message must name the file: {stderr}");
+                assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+            }
+            c => panic!("{name}: exit {c}: {stderr}"),
+        }
+        assert_eq!(listing(dir.path()), Vec::<String>::new(), "{name}: stray files");
+    }
+    eprintln!("bad corpus: {ok} fitted, {rejected} rejected with exit 2");
+}
+
+#[test]
+fn bake_config_spheres_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(character(), dir.path().join("c.obj")).unwrap();
+    let cfg = dir.path().join("scene.toml");
+    std::fs::write(
+        &cfg,
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\nmethod = \"octree\"\noutput = \"oct.sphr\"\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["stages"][0]["name"], "spheres[0]");
+    assert_eq!(v["stages"][0]["status"], "baked");
+    assert_eq!(v["stages"][1]["metrics"]["method"], "octree");
+    assert!(dir.path().join("out/c.sphr").is_file() && dir.path().join("out/oct.sphr").is_file());
+    // shards split the two entries; a second run is up to date
+    let (code, stdout, _) = run(penumbra().arg("bake").arg(&cfg).args(["--json", "--shard", "1/2"]));
+    assert_eq!(code, 0);
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["stages"][0]["status"], "skipped-by-shard");
+    assert_eq!(v["stages"][1]["status"], "up-to-date");
+    // the stage's asset equals the standalone command's
+    let standalone = dir.path().join("s.sphr");
+    let (code, _, stderr) = run(penumbra()
+        .arg("spheres")
+        .arg(dir.path().join("c.obj"))
+        .args(["--count", "6", "--grid", "16", "--iterations", "4", "-o"])
+        .arg(&standalone));
+    assert_eq!(code, 0, "{stderr}");
+    let a = AssetFile::open(&standalone).unwrap();
+    let b = AssetFile::open(dir.path().join("out/c.sphr")).unwrap();
+    assert_eq!(a.asset().section("spheres").unwrap().bytes(), b.asset().section("spheres").unwrap().bytes());
+}
