@@ -25,6 +25,8 @@ pub struct Cli {
 pub enum Command {
     /// Bake the SH log/exp and proxy tables for one SH order (SHEXP §4–7, IBPA §4–5).
     Tables(TablesArgs),
+    /// Modular Radiance Transfer bakes: `mrt dict` (MRT thesis ch. 3–4, App. A–B).
+    Mrt(crate::commands::mrt::MrtArgs),
     /// Show an asset's header, sections, checksums, metadata and values.
     Inspect(InspectArgs),
     /// Run every stage of a bake config (only the stages whose inputs changed).

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Stage names in execution order; a stage's index is its work-item index for `--shard`.
-pub const STAGES: &[&str] = &["tables"];
+pub const STAGES: &[&str] = &["tables", "mrt"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -90,6 +90,45 @@ fn run_tables(
     })
 }
 
+fn run_mrt(
+    cfg: &penumbra_config::LoadedConfig,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    let Some(m) = &cfg.config.mrt else {
+        return Err(CliError::internal(anyhow!("mrt stage selected but not configured")));
+    };
+    let o = super::mrt::DictOptions::from_stage(m);
+    let p = super::mrt::params(&o)
+        .map_err(|e| CliError { code: e.code, error: e.error.context(format!("{}: [mrt]", cfg.path.display())) })?;
+    let output = out_dir.join(m.output_name());
+    let key = super::mrt::cache_key(&p);
+    let start = Instant::now();
+    if !force {
+        if let Some((existing, metrics)) = existing_cache_key(&output) {
+            if existing == key {
+                return Ok(StageReport {
+                    value: json!({
+                        "name": "mrt", "kind": "MRTD", "status": "up-to-date",
+                        "output": output.display().to_string(), "cache_key": key,
+                        "bytes": std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0),
+                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
+                    }),
+                });
+            }
+        }
+    }
+    let o = super::mrt::bake_to(&p, &output, mode)?;
+    Ok(StageReport {
+        value: json!({
+            "name": "mrt", "kind": "MRTD", "status": "baked",
+            "output": output.display().to_string(), "cache_key": key,
+            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
+        }),
+    })
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
@@ -100,6 +139,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         .copied()
         .filter(|s| match *s {
             "tables" => cfg.config.tables.is_some(),
+            "mrt" => cfg.config.mrt.is_some(),
             _ => false,
         })
         .collect();
@@ -131,6 +171,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         }
         let r = match *name {
             "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
+            "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {

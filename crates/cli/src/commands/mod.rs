@@ -2,6 +2,7 @@
 
 pub mod bake;
 pub mod inspect;
+pub mod mrt;
 pub mod tables;
 
 use crate::args::{Cli, Command};
@@ -15,6 +16,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
     }
     match cli.command {
         Command::Tables(a) => tables::run(&a, cli.progress),
+        Command::Mrt(a) => mrt::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
         Command::Schema => {
