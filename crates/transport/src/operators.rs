@@ -13,7 +13,7 @@
 
 use crate::TransportError;
 use crate::shape::Texels;
-use crate::svd::{frobenius, mul, numerical_rank, thin_svd};
+use crate::svd::{frobenius, left_svd, mul, numerical_rank, thin_svd};
 use faer::{Mat, MatRef};
 
 /// Relative threshold of the numerical rank.
@@ -43,7 +43,7 @@ impl Prior {
 /// The prior of a sample matrix `L_d` (one light per column), keeping `k_d` vectors (fewer
 /// when `L_d`'s numerical rank is lower). Returns the prior and every singular value of `L_d`.
 pub fn prior_from_samples(l_d: MatRef<'_, f64>, k_d: usize) -> Result<(Prior, Vec<f64>), TransportError> {
-    let d = thin_svd(l_d)?;
+    let d = left_svd(l_d)?;
     let k = k_d.min(numerical_rank(&d.s, RANK_TOL));
     let p = Mat::from_fn(l_d.nrows(), k, |i, j| d.u[(i, j)]);
     Ok((Prior { p, s: d.s[..k].to_vec() }, d.s))

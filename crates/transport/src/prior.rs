@@ -140,7 +140,7 @@ pub struct SphereLight {
 /// reaches the inside only across that plane, and by convexity every segment to a boundary
 /// point crosses it inside the face: 1 if the face is missing, 0 if it is a wall. `None`
 /// otherwise (kitty-corner lights, lights straddling a plane).
-fn slab_visibility(shape: &Shape, light: &SphereLight) -> Option<f64> {
+pub fn slab_visibility(shape: &Shape, light: &SphereLight) -> Option<f64> {
     let (c, r) = (light.centre, light.radius);
     let mut beyond = None;
     for a in 0..3 {
@@ -186,6 +186,22 @@ impl DirectLight {
 
     /// Irradiance at `x` (on the boundary of `shape`, inward normal `n`) from `light`.
     pub fn irradiance(&self, shape: &Shape, light: &SphereLight, x: [f64; 3], n: [f64; 3]) -> f64 {
+        self.irradiance_with(shape, light, slab_visibility(shape, light), x, n)
+    }
+
+    /// [`Self::irradiance`] with the light's [`slab_visibility`] computed by the caller.
+    #[inline]
+    pub fn irradiance_with(
+        &self,
+        shape: &Shape,
+        light: &SphereLight,
+        slab: Option<f64>,
+        x: [f64; 3],
+        n: [f64; 3],
+    ) -> f64 {
+        if slab == Some(0.0) {
+            return 0.0;
+        }
         let c = light.centre;
         let w = [c[0] - x[0], c[1] - x[1], c[2] - x[2]];
         let d2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
@@ -194,7 +210,7 @@ impl DirectLight {
         if cos <= 0.0 {
             return 0.0;
         }
-        let vis = match slab_visibility(shape, light) {
+        let vis = match slab {
             Some(v) => v,
             None => self.sampled_visibility(shape, light, x),
         };

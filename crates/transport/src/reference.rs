@@ -2,11 +2,11 @@
 //! evaluates the direct light exactly where each ray lands (no texels, no prior, no bases),
 //! and the exact point-to-polygon form factor.
 
-use crate::prior::{DirectLight, SphereLight};
+use crate::gather::{DirectionSet, to_world};
+use crate::prior::{DirectLight, SphereLight, slab_visibility};
 use crate::shape::{FACE_FRAMES, Texels, exit_face};
 use faer::Mat;
 use penumbra_math::rng::{hash4, stage, unit_f64};
-use penumbra_math::warp::cosine_hemisphere;
 use rayon::prelude::*;
 
 /// Form factor from a differential area at `x` with unit normal `n` to the convex polygon
@@ -48,10 +48,11 @@ pub struct OneBounce {
 }
 
 /// One-bounce indirect irradiance at every texel centre of `tex` from `lights`, by
-/// cosine-weighted path tracing with `rays` rays per texel (two independently randomised
-/// halves of a Hammersley set, Cranley–Patterson rotated by the hash of
-/// `(seed, REFERENCE, shape, texel, half)`), the direct light evaluated exactly (with wall
-/// shadowing) at each hit point.
+/// cosine-weighted path tracing with `rays` rays per texel in two independent halves (each a
+/// Hammersley set of `rays/2` cosine directions, rotated about the normal by an angle from
+/// the hash of `(seed, REFERENCE, shape, texel, half)`; a different point set and different
+/// rotations from `F`'s), the direct light evaluated exactly (with wall shadowing) at each
+/// hit point: no texels, no bilinear reads.
 pub fn one_bounce(
     tex: &Texels,
     lights: &[SphereLight],
@@ -64,34 +65,29 @@ pub fn one_bounce(
     let n = tex.len();
     let nl = lights.len();
     let half = (rays / 2).max(1);
+    let dirs = DirectionSet::cosine(half);
     let dl = DirectLight::new();
+    let slab: Vec<Option<f64>> = lights.iter().map(|l| slab_visibility(&tex.shape, l)).collect();
     let per: Vec<[Vec<f64>; 2]> = (0..n)
         .into_par_iter()
         .map(|x| {
             let (f, _, _) = tex.coords(x);
-            let fr = &FACE_FRAMES[f];
             let p = tex.position(x);
             let mut est = [vec![0.0; nl], vec![0.0; nl]];
             for (h, acc) in est.iter_mut().enumerate() {
                 let item = (shape_id << 32) | x as u64;
-                let s1 = unit_f64(hash4(seed, stage::REFERENCE, item, 2 * h as u64));
-                let s2 = unit_f64(hash4(seed, stage::REFERENCE, item, 2 * h as u64 + 1));
-                for i in 0..half {
-                    let u = ((i as f64 + 0.5) / half as f64 + s1).fract();
-                    let v = ((i as u32).reverse_bits() as f64 * (1.0 / 4_294_967_296.0) + s2).fract();
-                    let l = cosine_hemisphere(u, v);
-                    let d = [
-                        l[0] * fr.u[0] + l[1] * fr.v[0] + l[2] * fr.n[0],
-                        l[0] * fr.u[1] + l[1] * fr.v[1] + l[2] * fr.n[1],
-                        l[0] * fr.u[2] + l[1] * fr.v[2] + l[2] * fr.n[2],
-                    ];
+                let phi = 2.0 * core::f64::consts::PI * unit_f64(hash4(seed, stage::REFERENCE, item, h as u64));
+                let rot = (phi.cos(), phi.sin());
+                for l in &dirs.dirs {
+                    let (_, d) = to_world(f, *l, rot);
                     let (g, t) = exit_face(p, d);
                     if g == usize::MAX || !tex.shape.has(g) {
                         continue;
                     }
                     let y = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
-                    for (a, light) in acc.iter_mut().zip(lights) {
-                        *a += dl.irradiance(&tex.shape, light, y, FACE_FRAMES[g].n);
+                    let ny = FACE_FRAMES[g].n;
+                    for ((a, light), s) in acc.iter_mut().zip(lights).zip(&slab) {
+                        *a += dl.irradiance_with(&tex.shape, light, *s, y, ny);
                     }
                 }
                 let s = albedo / half as f64;

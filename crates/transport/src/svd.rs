@@ -9,6 +9,7 @@
 use crate::TransportError;
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::evd::{ComputeEigenvectors, self_adjoint_evd, self_adjoint_evd_scratch};
 use faer::linalg::matmul::matmul;
 use faer::linalg::svd::{ComputeSvdVectors, svd, svd_scratch};
 use faer::{Accum, Mat, MatRef, Par};
@@ -26,15 +27,27 @@ pub struct ThinSvd {
 
 /// The canonical thin SVD of `a`.
 pub fn thin_svd(a: MatRef<'_, f64>) -> Result<ThinSvd, TransportError> {
+    svd_impl(a, true)
+}
+
+/// The canonical thin SVD of `a` without the right singular vectors (`v` is empty: 0 columns),
+/// for when only `U` and `σ` are used (a prior): cheaper when `a` is wide or square-ish.
+pub fn left_svd(a: MatRef<'_, f64>) -> Result<ThinSvd, TransportError> {
+    svd_impl(a, false)
+}
+
+fn svd_impl(a: MatRef<'_, f64>, right: bool) -> Result<ThinSvd, TransportError> {
     let (m, n) = a.shape();
     let k = m.min(n);
     let mut u = Mat::<f64>::zeros(m, k);
-    let mut v = Mat::<f64>::zeros(n, k);
+    let mut v = Mat::<f64>::zeros(n, if right { k } else { 0 });
     let mut s = Diag::<f64>::zeros(k);
     let par = Par::Seq;
-    let req = svd_scratch::<f64>(m, n, ComputeSvdVectors::Thin, ComputeSvdVectors::Thin, par, Default::default());
+    let cv = if right { ComputeSvdVectors::Thin } else { ComputeSvdVectors::No };
+    let req = svd_scratch::<f64>(m, n, ComputeSvdVectors::Thin, cv, par, Default::default());
     let mut mem = MemBuffer::new(req);
-    svd(a, s.as_mut(), Some(u.as_mut()), Some(v.as_mut()), par, MemStack::new(&mut mem), Default::default())
+    let vm = if right { Some(v.as_mut()) } else { None };
+    svd(a, s.as_mut(), Some(u.as_mut()), vm, par, MemStack::new(&mut mem), Default::default())
         .map_err(|e| TransportError::Svd(format!("{m}×{n}: {e:?}")))?;
     let s: Vec<f64> = (0..k).map(|i| s[i]).collect();
     let mut out = ThinSvd { u, s, v };
@@ -57,6 +70,24 @@ pub fn singular_values(a: MatRef<'_, f64>) -> Result<Vec<f64>, TransportError> {
     Ok(v)
 }
 
+/// Singular values of `a` from the eigenvalues of the Gram matrix `A Aᵀ` (or `Aᵀ A`, the
+/// smaller): `σᵢ = √λᵢ`. Squaring loses the singular values below ~10⁻⁸·σ₁ to rounding, which
+/// is harmless where only energy fractions of `Σσ²` are wanted (Table 3.2), and a symmetric
+/// eigensolve of the Gram matrix is cheaper than a bidiagonal SVD.
+pub fn singular_values_gram(a: MatRef<'_, f64>) -> Result<Vec<f64>, TransportError> {
+    let g = if a.nrows() <= a.ncols() { mul(a, a.transpose()) } else { mul_tn(a, a) };
+    let n = g.nrows();
+    let mut s = Diag::<f64>::zeros(n);
+    let par = Par::Seq;
+    let req = self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::No, par, Default::default());
+    let mut mem = MemBuffer::new(req);
+    self_adjoint_evd(g.as_ref(), s.as_mut(), None, par, MemStack::new(&mut mem), Default::default())
+        .map_err(|e| TransportError::Svd(format!("Gram {n}×{n}: {e:?}")))?;
+    let mut v: Vec<f64> = (0..n).map(|i| s[i].max(0.0).sqrt()).collect();
+    v.sort_by(|a, b| b.total_cmp(a));
+    Ok(v)
+}
+
 /// Descending order, then a fixed sign per singular pair.
 fn canonicalise(d: &mut ThinSvd) {
     let k = d.s.len();
@@ -69,7 +100,9 @@ fn canonicalise(d: &mut ThinSvd) {
         for (i, &o) in order.iter().enumerate() {
             d.s[i] = s[o];
             d.u.col_mut(i).copy_from(u.col(o));
-            d.v.col_mut(i).copy_from(v.col(o));
+            if v.ncols() == k {
+                d.v.col_mut(i).copy_from(v.col(o));
+            }
         }
     }
     for i in 0..k {
@@ -87,8 +120,10 @@ fn canonicalise(d: &mut ThinSvd) {
             for r in 0..d.u.nrows() {
                 d.u[(r, i)] = -d.u[(r, i)];
             }
-            for r in 0..d.v.nrows() {
-                d.v[(r, i)] = -d.v[(r, i)];
+            if d.v.ncols() == k {
+                for r in 0..d.v.nrows() {
+                    d.v[(r, i)] = -d.v[(r, i)];
+                }
             }
         }
     }
@@ -179,9 +214,20 @@ mod tests {
                 let big = (0..m).max_by(|&x, &y| col[x].abs().total_cmp(&col[y].abs())).unwrap();
                 assert!(col[big] > 0.0);
             }
+            let l = left_svd(a.as_ref()).unwrap();
+            assert_eq!(l.s, d.s);
+            assert_eq!(l.v.ncols(), 0);
+            for j in 0..k {
+                // the same canonical left vectors up to rounding
+                let dot: f64 = (0..m).map(|i| l.u[(i, j)] * d.u[(i, j)]).sum();
+                assert!(dot > 1.0 - 1e-9 || d.s[j] - d.s.get(j + 1).copied().unwrap_or(0.0) < 1e-9);
+            }
             let sv = singular_values(a.as_ref()).unwrap();
-            for (x, y) in sv.iter().zip(&d.s) {
+            let sg = singular_values_gram(a.as_ref()).unwrap();
+            for ((x, y), z) in sv.iter().zip(&d.s).zip(&sg) {
                 assert!((x - y).abs() < 1e-12 * d.s[0]);
+                // squaring: absolute error ~ ε·σ₁²/σ
+                assert!((z - y).abs() < 1e-12 * d.s[0] * d.s[0] / y.max(1e-3 * d.s[0]), "{z} vs {y}");
             }
         }
     }
