@@ -87,6 +87,29 @@ impl DictParams {
         }
     }
 
+    /// The normalised parameters as JSON (the asset's `meta.params`; hashed for cache keys).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "dictionary": self.dictionary.name(),
+            "face_res": self.face_res,
+            "k_d": self.k_d,
+            "k_b": self.k_b,
+            "rays": self.rays,
+            "albedo": self.albedo,
+            "enrich": self.enrich,
+            "fallback_modes": self.fallback_modes,
+            "gather": self.gather.name(),
+            "light_layout": self.layout.name(),
+            "light_radius": self.light_radius,
+            "vector_rays": self.vector_rays,
+            "volume_res": self.volume_res,
+            "probe_rays": self.probe_rays,
+            "test_lights": self.test_lights,
+            "reference_rays": self.reference_rays,
+            "seed": self.seed,
+        })
+    }
+
     /// Checks every range; the message names the parameter and the allowed range.
     pub fn validate(&self) -> Result<(), TransportError> {
         let bad = |what: &str, v: String, range: &str| {

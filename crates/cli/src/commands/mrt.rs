@@ -255,27 +255,7 @@ pub fn params(o: &DictOptions) -> Result<DictParams, CliError> {
 
 /// Normalised parameters of a dictionary bake, hashed for the cache key.
 pub fn cache_key(p: &DictParams) -> String {
-    let v = json!({
-        "tool": env!("CARGO_PKG_VERSION"),
-        "stage": "mrt",
-        "dictionary": p.dictionary.name(),
-        "face_res": p.face_res,
-        "k_d": p.k_d,
-        "k_b": p.k_b,
-        "rays": p.rays,
-        "albedo": p.albedo,
-        "enrich": p.enrich,
-        "fallback_modes": p.fallback_modes,
-        "gather": p.gather.name(),
-        "light_layout": p.layout.name(),
-        "light_radius": p.light_radius,
-        "vector_rays": p.vector_rays,
-        "volume_res": p.volume_res,
-        "probe_rays": p.probe_rays,
-        "test_lights": p.test_lights,
-        "reference_rays": p.reference_rays,
-        "seed": p.seed,
-    });
+    let v = json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "mrt", "params": p.to_json()});
     blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
 }
 
