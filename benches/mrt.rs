@@ -13,7 +13,8 @@ use std::time::Duration;
 
 fn mrt(c: &mut Criterion) {
     let mut g = c.benchmark_group("mrt_dict");
-    g.sample_size(10).measurement_time(Duration::from_secs(30)).warm_up_time(Duration::from_secs(1));
+    // ≈ 10 runs of a few seconds each
+    g.sample_size(10).measurement_time(Duration::from_secs(60)).warm_up_time(Duration::from_secs(1));
     for (name, kind) in [("cube2d_thesis", DictionaryKind::Cube2d), ("closed_cube_thesis", DictionaryKind::ClosedCube)]
     {
         let p = DictParams::new(kind);
