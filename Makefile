@@ -20,6 +20,7 @@ fmt:
 bench:
 	$(CARGO) bench --bench tables
 	$(CARGO) bench --bench spheres
+	$(CARGO) bench --bench mrt
 
 # The README's first command: bake the demo config.
 demo:

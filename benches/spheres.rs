@@ -36,10 +36,13 @@ fn main() {
         std::env::var(var).unwrap_or_else(|_| default.to_string()).split(',').map(str::to_string).collect()
     };
     let meshes = list("SPHERES_BENCH_MESHES", "bunny_closed_3k,armadillo_43k,spot,rocker-arm");
-    let counts: Vec<usize> = list("SPHERES_BENCH_COUNTS", "16,32,64,128").iter().filter_map(|c| c.parse().ok()).collect();
+    let counts: Vec<usize> =
+        list("SPHERES_BENCH_COUNTS", "16,32,64,128").iter().filter_map(|c| c.parse().ok()).collect();
     println!("threads: {}", rayon::current_num_threads());
     println!();
-    println!("| mesh | N | octree: count, E, union, s | Lloyd at N: E, union, s, iterations (teleports kept/tried) | Lloyd at octree count: E, union | union ratio octree / Lloyd |");
+    println!(
+        "| mesh | N | octree: count, E, union, s | Lloyd at N: E, union, s, iterations (teleports kept/tried) | Lloyd at octree count: E, union | union ratio octree / Lloyd |"
+    );
     println!("|---|---|---|---|---|---|");
     for m in &meshes {
         let path = data.join("meshes").join(format!("{m}.obj"));

@@ -5,6 +5,7 @@
 mod bake;
 mod compat;
 mod inspect;
+mod mrt;
 mod runtime;
 mod shadows;
 mod spheres;

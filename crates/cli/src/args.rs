@@ -27,6 +27,8 @@ pub enum Command {
     Tables(TablesArgs),
     /// Fit bounding sphere sets to a mesh (SHEXP §6.2–6.3), or export one for viewing.
     Spheres(SpheresArgs),
+    /// Modular Radiance Transfer bakes: `mrt dict` (MRT thesis ch. 3–4, App. A–B).
+    Mrt(crate::commands::mrt::MrtArgs),
     /// Show an asset's header, sections, checksums, metadata and values.
     Inspect(InspectArgs),
     /// Run every stage of a bake config (only the stages whose inputs changed).

@@ -16,13 +16,16 @@ pub struct BakeConfig {
     /// Bounding sphere sets, one per entry (`penumbra spheres`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub spheres: Vec<SpheresStage>,
+    /// MRT dictionary (`penumbra mrt dict`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mrt: Option<MrtStage>,
 }
 
 impl BakeConfig {
     /// Whether the config names at least one stage. Every stage added to the config is
     /// listed here.
     pub fn has_stage(&self) -> bool {
-        self.tables.is_some() || !self.spheres.is_empty()
+        self.tables.is_some() || !self.spheres.is_empty() || self.mrt.is_some()
     }
 }
 
@@ -101,6 +104,68 @@ pub struct SpheresStage {
     pub output: Option<String>,
 }
 
+/// The `[mrt]` stage: an MRT dictionary (MRT thesis ch. 3–4, App. A–B). Defaults are the
+/// thesis settings (16² texels per face, k_d 64, k_b 32, 16K rays).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MrtStage {
+    /// `cube2d` (six shapes, default) or `closed-cube`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dictionary: Option<String>,
+    /// Texels per face edge, 2..=24 (default 16).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub face_res: Option<u32>,
+    /// Light-prior vectors k_d, 1..=256 (default 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kd: Option<u32>,
+    /// Indirect modes k_b, 1..=kd (default 32).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kb: Option<u32>,
+    /// Gather rays per texel for F, 16..=1048576 (default 16384).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rays: Option<u32>,
+    /// Diffuse albedo in F, 0 < A <= 1 (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo: Option<f64>,
+    /// Enrichment iterations (App. A), 0..=8 (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub enrich: Option<u32>,
+    /// Face-restricted prior vectors per face in the enrichment fallback, 0..=kd (default 8;
+    /// 0 = face constants only, as in the thesis).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fallback_modes: Option<u32>,
+    /// How gathers read the texels they hit: `bilinear` (default) or `exact` form factors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gather: Option<String>,
+    /// Prior light positions: `lattice` (i/7, default) or `cells` ((i+1/2)/6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_layout: Option<String>,
+    /// Sphere-light radius (cube edge 1), 0 < r <= 0.08 (default 0.05).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_radius: Option<f64>,
+    /// Rays per texel of the vector-irradiance gather, 16..=65536 (default 1024).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vector_rays: Option<u32>,
+    /// Volume probes per axis, 1..=16 (default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume_res: Option<u32>,
+    /// Rays per volume probe, 16..=65536 (default 4096).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe_rays: Option<u32>,
+    /// Lights per shape for the error measurements, 1..=64 (default 8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_lights: Option<u32>,
+    /// Rays per texel of the path-traced reference, 2..=65536 (default 1024).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_rays: Option<u32>,
+    /// Seed of every hashed random draw (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Output file name inside `output_dir` (default `dictionary.mrtd`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+}
+
 impl SpheresStage {
     /// Output file name.
     pub fn output_name(&self) -> String {
@@ -111,5 +176,12 @@ impl SpheresStage {
                 format!("{}.sphr", stem.unwrap_or_else(|| "spheres".into()))
             }
         }
+    }
+}
+
+impl MrtStage {
+    /// Output file name.
+    pub fn output_name(&self) -> &str {
+        self.output.as_deref().unwrap_or("dictionary.mrtd")
     }
 }

@@ -93,8 +93,67 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
         }
         outputs.push(name);
     }
+    if let Some(m) = &c.mrt {
+        validate_mrt(m, &mut out);
+    }
     if !c.has_stage() {
-        out.push(issue("stages", "the config names no stage to bake (add a stage table such as [tables])"));
+        out.push(issue("stages", "the config names no stage to bake (add a stage table such as [tables] or [mrt])"));
     }
     out
+}
+
+/// Ranges of the `[mrt]` stage (the same as `penumbra mrt dict`'s options).
+fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
+    let range = |out: &mut Vec<Issue>, key: &str, v: Option<u32>, lo: u32, hi: u32| {
+        if let Some(v) = v {
+            if !(lo..=hi).contains(&v) {
+                out.push(issue(key, format!("{v} is out of range (allowed: {lo}..={hi})")));
+            }
+        }
+    };
+    if let Some(d) = &m.dictionary {
+        if d != "cube2d" && d != "closed-cube" {
+            out.push(issue(
+                "mrt.dictionary",
+                format!("{d:?} is not a dictionary (allowed: \"cube2d\", \"closed-cube\")"),
+            ));
+        }
+    }
+    range(out, "mrt.face_res", m.face_res, 2, 24);
+    range(out, "mrt.kd", m.kd, 1, 256);
+    let kd = m.kd.unwrap_or(64);
+    range(out, "mrt.kb", m.kb, 1, kd.max(1));
+    range(out, "mrt.rays", m.rays, 16, 1 << 20);
+    if let Some(a) = m.albedo {
+        if !(a > 0.0 && a <= 1.0) {
+            out.push(issue("mrt.albedo", format!("{a} is out of range (allowed: 0 < A <= 1)")));
+        }
+    }
+    range(out, "mrt.enrich", m.enrich, 0, 8);
+    range(out, "mrt.fallback_modes", m.fallback_modes, 0, kd);
+    if let Some(g) = &m.gather {
+        if g != "bilinear" && g != "exact" {
+            out.push(issue("mrt.gather", format!("{g:?} is not a gather (allowed: \"bilinear\", \"exact\")")));
+        }
+    }
+    if let Some(l) = &m.light_layout {
+        if l != "lattice" && l != "cells" {
+            out.push(issue("mrt.light_layout", format!("{l:?} is not a layout (allowed: \"lattice\", \"cells\")")));
+        }
+    }
+    if let Some(r) = m.light_radius {
+        if !(r > 0.0 && r <= 0.08) {
+            out.push(issue("mrt.light_radius", format!("{r} is out of range (allowed: 0 < r <= 0.08)")));
+        }
+    }
+    range(out, "mrt.vector_rays", m.vector_rays, 16, 65536);
+    range(out, "mrt.volume_res", m.volume_res, 1, 16);
+    range(out, "mrt.probe_rays", m.probe_rays, 16, 65536);
+    range(out, "mrt.test_lights", m.test_lights, 1, 64);
+    range(out, "mrt.reference_rays", m.reference_rays, 2, 65536);
+    if let Some(o) = &m.output {
+        if !plain_file_name(o) {
+            out.push(issue("mrt.output", format!("{o:?} must be a plain file name (no directories)")));
+        }
+    }
 }

@@ -9,7 +9,8 @@ pub mod gamma;
 pub mod indirect;
 pub mod local_light;
 pub mod log;
-pub mod ohlsh;
+/// The quadratic-SH → OHLSH map lives in `penumbra-math` (shared with the MRT bake).
+pub use penumbra_math::ohlsh;
 pub mod ol;
 pub mod reference;
 pub mod tables;

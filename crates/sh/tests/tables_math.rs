@@ -7,7 +7,6 @@ use penumbra_sh::eta::*;
 use penumbra_sh::gamma::TripleProduct;
 use penumbra_sh::indirect::*;
 use penumbra_sh::local_light::*;
-use penumbra_sh::ohlsh::*;
 use penumbra_sh::reference;
 use penumbra_sh::tables::*;
 
@@ -154,15 +153,6 @@ fn eta_indirect_is_finite_and_conservative() {
     assert!((indirect_difference(e.theta) - 1.0 / 256.0).abs() < 1e-9);
     // Below the critical angle the indirect shading is under the tolerance.
     assert!(indirect_difference(0.5 * e.theta) < 1.0 / 256.0);
-}
-
-#[test]
-fn ohlsh_matches_closed_form() {
-    let a = quadratic_to_ohlsh();
-    let c = closed_form();
-    for (x, y) in a.iter().zip(&c) {
-        assert!((x - y).abs() < 1e-12, "{x} vs {y}");
-    }
 }
 
 #[test]

@@ -1,1 +1,39 @@
-//! penumbra-transport: Modular Radiance Transfer operators. Work in progress (issue 6).
+//! penumbra-transport: Modular Radiance Transfer (Loos 2015, "MRT thesis").
+//!
+//! The dictionary bake (`penumbra mrt dict`, ch. 3–4, App. A–B), one concept per module:
+//! - [`shape`]: the cube dictionary (§3.5.1), texel layout, analytic ray queries.
+//! - [`prior`]: the direct-light prior samples (§4.1.1) with wall shadowing.
+//! - [`gather`]: the one-bounce operator `F` by ray gathers, SH gathers of implicit lights.
+//! - [`svd`]: faer SVDs (canonical, deterministic) and products.
+//! - [`operators`]: `P`, `S`, `M`, `U_b`, `T_d→b`, `L_imp` (§3.3) and enrichment (App. A).
+//! - [`reference`]: the brute-force ground truth (path tracer, exact form factors).
+//! - [`dict`]: the bake driver and its measurements; [`asset`]: the `MRTD` writer.
+//!
+//! Interfaces and level operators (§3.4, §4.2–4.3) come next; the asset layout reserves
+//! room for them (per-shape sections are prefixed, interfaces are listed in `meta`).
+//!
+//! All bake math is f64; linear algebra runs `Par::Seq` inside a decomposition and rayon
+//! across independent work, so the output bytes do not depend on the thread count.
+
+pub mod asset;
+pub mod dict;
+pub mod gather;
+pub mod operators;
+pub mod prior;
+pub mod reference;
+pub mod shape;
+pub mod svd;
+
+/// Errors of the transport bakes.
+#[derive(Debug, thiserror::Error)]
+pub enum TransportError {
+    /// A parameter is out of range (the message names it and the allowed range).
+    #[error("{0}")]
+    Param(String),
+    /// A decomposition failed to converge.
+    #[error("SVD did not converge ({0})")]
+    Svd(String),
+    /// The asset could not be built.
+    #[error("cannot build the MRTD asset: {0}")]
+    Asset(String),
+}

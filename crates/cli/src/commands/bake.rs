@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// Stage names in execution order. Every configured entry of a stage is one work item;
 /// `--shard K/N` runs the items whose index (in this order) is K mod N.
-pub const STAGES: &[&str] = &["tables", "spheres"];
+pub const STAGES: &[&str] = &["tables", "spheres", "mrt"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -37,6 +37,48 @@ fn existing_cache_key(path: &Path) -> Option<(String, Value)> {
 
 struct StageReport {
     value: Value,
+}
+
+/// What a bake wrote: bytes, wall seconds, metrics.
+struct Baked {
+    bytes: u64,
+    seconds: f64,
+    metrics: Value,
+}
+
+/// The report of a stage whose output is keyed by `key`: "up-to-date" when the asset at
+/// `output` already carries that key (and `force` is off), otherwise runs `bake`.
+fn cached_or_bake(
+    name: &str,
+    kind: &str,
+    output: &Path,
+    key: &str,
+    force: bool,
+    bake: impl FnOnce() -> Result<Baked, CliError>,
+) -> Result<StageReport, CliError> {
+    let start = Instant::now();
+    if !force {
+        if let Some((existing, metrics)) = existing_cache_key(output) {
+            if existing == key {
+                return Ok(StageReport {
+                    value: json!({
+                        "name": name, "kind": kind, "status": "up-to-date",
+                        "output": output.display().to_string(), "cache_key": key,
+                        "bytes": std::fs::metadata(output).map(|m| m.len()).unwrap_or(0),
+                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
+                    }),
+                });
+            }
+        }
+    }
+    let o = bake()?;
+    Ok(StageReport {
+        value: json!({
+            "name": name, "kind": kind, "status": "baked",
+            "output": output.display().to_string(), "cache_key": key,
+            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
+        }),
+    })
 }
 
 fn run_tables(
@@ -66,28 +108,9 @@ fn run_tables(
     )?;
     let output = out_dir.join(t.output_name());
     let key = super::tables::cache_key(&p);
-    let start = Instant::now();
-    if !force {
-        if let Some((existing, metrics)) = existing_cache_key(&output) {
-            if existing == key {
-                return Ok(StageReport {
-                    value: json!({
-                        "name": "tables", "kind": "SHTB", "status": "up-to-date",
-                        "output": output.display().to_string(), "cache_key": key,
-                        "bytes": std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0),
-                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
-                    }),
-                });
-            }
-        }
-    }
-    let o = super::tables::bake_to(&p, &output, mode)?;
-    Ok(StageReport {
-        value: json!({
-            "name": "tables", "kind": "SHTB", "status": "baked",
-            "output": output.display().to_string(), "cache_key": key,
-            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
-        }),
+    cached_or_bake("tables", "SHTB", &output, &key, force, || {
+        let o = super::tables::bake_to(&p, &output, mode)?;
+        Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
     })
 }
 
@@ -131,29 +154,29 @@ fn run_spheres(
         output: out_dir.join(sp.output_name()),
     };
     let key = super::spheres::cache_key(&job, &crate::fsutil::hash_file(&mesh)?);
-    let start = Instant::now();
-    let name = format!("spheres[{index}]");
-    if !force {
-        if let Some((existing, metrics)) = existing_cache_key(&job.output) {
-            if existing == key {
-                return Ok(StageReport {
-                    value: json!({
-                        "name": name, "kind": "SPHR", "status": "up-to-date",
-                        "output": job.output.display().to_string(), "cache_key": key,
-                        "bytes": std::fs::metadata(&job.output).map(|m| m.len()).unwrap_or(0),
-                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
-                    }),
-                });
-            }
-        }
-    }
-    let o = super::spheres::bake_to(&job, mode)?;
-    Ok(StageReport {
-        value: json!({
-            "name": name, "kind": "SPHR", "status": "baked",
-            "output": job.output.display().to_string(), "cache_key": key,
-            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
-        }),
+    cached_or_bake(&format!("spheres[{index}]"), "SPHR", &job.output, &key, force, || {
+        let o = super::spheres::bake_to(&job, mode)?;
+        Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
+    })
+}
+
+fn run_mrt(
+    cfg: &penumbra_config::LoadedConfig,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    let Some(m) = &cfg.config.mrt else {
+        return Err(CliError::internal(anyhow!("mrt stage selected but not configured")));
+    };
+    let o = super::mrt::DictOptions::from_stage(m);
+    let p = super::mrt::params(&o)
+        .map_err(|e| CliError { code: e.code, error: e.error.context(format!("{}: [mrt]", cfg.path.display())) })?;
+    let output = out_dir.join(m.output_name());
+    let key = super::mrt::cache_key(&p);
+    cached_or_bake("mrt", "MRTD", &output, &key, force, || {
+        let o = super::mrt::bake_to(&p, &output, mode)?;
+        Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
     })
 }
 
@@ -168,6 +191,9 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         items.push(("tables", 0));
     }
     items.extend((0..cfg.config.spheres.len()).map(|i| ("spheres", i)));
+    if cfg.config.mrt.is_some() {
+        items.push(("mrt", 0));
+    }
     let configured: Vec<&str> = STAGES.iter().copied().filter(|s| items.iter().any(|(n, _)| n == s)).collect();
     if let Some(only) = &a.only {
         if !STAGES.contains(&only.as_str()) {
@@ -184,7 +210,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
 
     let mut stages = Vec::new();
     for (item, &(name, index)) in items.iter().enumerate() {
-        let label = if name == "tables" { name.to_string() } else { format!("{name}[{index}]") };
+        let label = if name == "spheres" { format!("{name}[{index}]") } else { name.to_string() };
         let skip = |status: &str| json!({"name": label, "status": status});
         if a.only.as_deref().is_some_and(|o| o != name) {
             stages.push(skip("skipped-by-only"));
@@ -199,6 +225,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         let r = match name {
             "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
             "spheres" => run_spheres(&cfg, index, &out_dir, a.force, mode)?,
+            "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {

@@ -2,6 +2,7 @@
 
 pub mod bake;
 pub mod inspect;
+pub mod mrt;
 pub mod spheres;
 pub mod tables;
 
@@ -17,6 +18,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
     match cli.command {
         Command::Tables(a) => tables::run(&a, cli.progress),
         Command::Spheres(a) => spheres::run(&a, cli.progress),
+        Command::Mrt(a) => mrt::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
         Command::Schema => {

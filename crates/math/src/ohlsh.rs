@@ -8,10 +8,10 @@
 //! thesis's closed form (B.3) `a = {b₁ − c₁b₇, b₂ + c₂b₆, b₃ + c₃b₇, b₄ + c₂b₈}`,
 //! `c₁ = 3√5/4, c₂ = 3√5/8, c₃ = √15/2` (1-based indices in our SH order).
 
+use crate::linalg::solve;
+use crate::quadrature::GaussLegendre;
+use crate::sh::ShEval;
 use core::f64::consts::PI;
-use penumbra_math::linalg::solve;
-use penumbra_math::quadrature::GaussLegendre;
-use penumbra_math::sh::ShEval;
 
 /// The 4×9 row-major matrix `A = H₁⁻¹ H₂` mapping quadratic SH to OHLSH.
 pub fn quadratic_to_ohlsh() -> [f64; 36] {
@@ -67,4 +67,18 @@ pub fn closed_form() -> [f64; 36] {
     a[27 + 3] = 1.0;
     a[27 + 7] = c2;
     a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ohlsh_matches_closed_form() {
+        let a = quadratic_to_ohlsh();
+        let c = closed_form();
+        for (x, y) in a.iter().zip(&c) {
+            assert!((x - y).abs() < 1e-12, "{x} vs {y}");
+        }
+    }
 }

@@ -1,0 +1,109 @@
+//! Writes a [`DictBake`] as an `MRTD` asset (sections documented in
+//! `schemas/asset-format.md`, "MRTD").
+//!
+//! Per-shape sections are named `<shape>.<section>` (e.g. `closed.u_b`) so that later
+//! kind versions can add interface sections (`<shape>.r_b2rlf.<face>`, shared `u_r`, …)
+//! without renaming anything.
+
+use crate::TransportError;
+use crate::dict::{DictBake, MRTD_KIND_VERSION};
+use crate::shape::{FACE_FRAMES, FACE_NAMES};
+use penumbra_asset::{AssetBuilder, Kind};
+use serde_json::json;
+
+/// Section suffixes every shape has, in file order.
+pub const SHAPE_SECTIONS: &[&str] =
+    &["faces", "positions", "normals", "u_b", "t_d2b", "u_bvec", "probes", "u_bvol", "sigma_d", "prior_s", "sigma_m"];
+
+/// Names of every section of an MRTD v1 asset of these shapes, for `require_known`.
+pub fn section_names(shapes: &[&str]) -> Vec<String> {
+    let mut v = vec!["meta".to_string(), "face_frames".to_string()];
+    for s in shapes {
+        v.extend(SHAPE_SECTIONS.iter().map(|x| format!("{s}.{x}")));
+    }
+    v
+}
+
+fn err(e: impl core::fmt::Display) -> TransportError {
+    TransportError::Asset(e.to_string())
+}
+
+fn f32s(v: impl IntoIterator<Item = f64>) -> Vec<f32> {
+    v.into_iter().map(|x| x as f32).collect()
+}
+
+/// The `meta` JSON: tool, kind version, conventions, normalised parameters, the shape table,
+/// metrics. No timestamps, durations or paths.
+pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
+    let p = &b.params;
+    let shapes: Vec<_> = b
+        .shapes
+        .iter()
+        .map(|s| {
+            let sh = &s.texels.shape;
+            json!({
+                "name": sh.name,
+                "faces": s.texels.faces.iter().map(|&f| FACE_NAMES[f]).collect::<Vec<_>>(),
+                "missing_faces": sh.missing_faces().iter().map(|&f| FACE_NAMES[f]).collect::<Vec<_>>(),
+                "texels": s.texels.len(),
+                "prior_lights": s.metrics.prior_lights,
+                "k_d": s.metrics.k_d,
+                "k_b": s.metrics.k_b,
+                "probes": s.probes.len(),
+            })
+        })
+        .collect();
+    json!({
+        "kind": "MRTD",
+        "kind_version": MRTD_KIND_VERSION,
+        "tool": concat!("penumbra ", env!("CARGO_PKG_VERSION")),
+        "convention": {
+            "frame": "each shape is the unit cube [0,1]^3, +Y up; faces -x,+x,-y(floor),+y(ceiling),-z,+z = 0..5; normals point inward",
+            "texels": "face_frames[f] = (origin, u, v, n); texel (i,j) of a present face is centred at origin + (i+0.5)/R u + (j+0.5)/R v; a shape's texels are its present faces in face order, each row-major (j, then i): index slot*R^2 + j*R + i",
+            "light": "l_d = direct irradiance at texel centres (any unit); U_b b = one-bounce indirect irradiance in the same unit for uniform albedo `params.albedo`; for coloured surfaces feed reflectance-weighted direct light per channel",
+            "runtime": "b = t_d2b . l_d (k_b); indirect = u_b . b (MRT thesis eq. 3.3)",
+            "sh": "real orthonormal; index i = l(l+1)+m; Condon-Shortley as in graphics: y(1,-1) = -sqrt(3/4pi) y, y(1,0) = sqrt(3/4pi) z, y(1,1) = -sqrt(3/4pi) x",
+            "u_bvec": "OHLSH (MRT thesis App. B) of incident radiance in the texel frame (x = face u, y = face v, z = inward normal); irradiance for unit normal m (texel frame) = pi*a0*y0 + (2pi/3)*sum_m a1m*y1m(m)",
+            "u_bvol": "order-3 SH (9) of incident radiance at probe centres, world (shape) frame; irradiance for normal m = sum_l Ahat_l sum_m c_lm y_lm(m), Ahat = (pi, 2pi/3, pi/4)",
+        },
+        "params": p.to_json(),
+        "shapes": shapes,
+        "interfaces": [],
+        "cache_key": cache_key,
+        "metrics": b.metrics,
+    })
+}
+
+/// Builds the asset.
+pub fn to_asset(b: &DictBake, cache_key: Option<&str>) -> Result<AssetBuilder, TransportError> {
+    let mut a = AssetBuilder::new(Kind::MRTD);
+    let meta = serde_json::to_string(&meta_json(b, cache_key)).map_err(err)?;
+    a.add_json("meta", &meta).map_err(err)?;
+    let frames: Vec<f32> =
+        FACE_FRAMES.iter().flat_map(|f| [f.origin, f.u, f.v, f.n]).flatten().map(|x| x as f32).collect();
+    a.add_f32("face_frames", &[6, 4, 3], &frames).map_err(err)?;
+    for s in &b.shapes {
+        let tex = &s.texels;
+        let name = tex.shape.name;
+        let n = tex.len();
+        let r = &s.reduced;
+        let kb = r.u_b.ncols();
+        let sec = |x: &str| format!("{name}.{x}");
+        let faces: Vec<u8> = tex.faces.iter().map(|&f| f as u8).collect();
+        a.add_u8(&sec("faces"), &[faces.len()], &faces).map_err(err)?;
+        a.add_f32(&sec("positions"), &[n, 3], &f32s((0..n).flat_map(|t| tex.position(t)))).map_err(err)?;
+        a.add_f32(&sec("normals"), &[n, 3], &f32s((0..n).flat_map(|t| tex.normal(t)))).map_err(err)?;
+        a.add_f32(&sec("u_b"), &[n, kb], &f32s((0..n).flat_map(|i| (0..kb).map(move |j| r.u_b[(i, j)]))))
+            .map_err(err)?;
+        a.add_f32(&sec("t_d2b"), &[kb, n], &f32s((0..kb).flat_map(|i| (0..n).map(move |j| r.t_d2b[(i, j)]))))
+            .map_err(err)?;
+        a.add_f32(&sec("u_bvec"), &[n, kb, 4], &f32s(s.u_bvec.iter().copied())).map_err(err)?;
+        let g = s.probes.len();
+        a.add_f32(&sec("probes"), &[g, 3], &f32s(s.probes.iter().flatten().copied())).map_err(err)?;
+        a.add_f32(&sec("u_bvol"), &[g, kb, 9], &f32s(s.u_bvol.iter().copied())).map_err(err)?;
+        a.add_f32(&sec("sigma_d"), &[s.sigma_d_all.len()], &f32s(s.sigma_d_all.iter().copied())).map_err(err)?;
+        a.add_f32(&sec("prior_s"), &[s.s.len()], &f32s(s.s.iter().copied())).map_err(err)?;
+        a.add_f32(&sec("sigma_m"), &[r.sigma_m.len()], &f32s(r.sigma_m.iter().copied())).map_err(err)?;
+    }
+    Ok(a)
+}

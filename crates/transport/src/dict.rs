@@ -1,0 +1,492 @@
+//! The MRT dictionary bake (`penumbra mrt dict`): for every shape of a dictionary, the
+//! prior, `F`, the reduced operators with enrichment, vector irradiance and volume probes,
+//! and the quality measurements (MRT thesis ch. 3–4, App. A–B).
+
+use crate::TransportError;
+use crate::gather::{DirectionSet, Gather, probe_sh, texel_sh, transport_matrix};
+use crate::operators::{Prior, Reduced, enrich, fallback_basis, prior_from_samples, reduce};
+use crate::prior::{DirectLight, LightLayout, SphereLight, prior_lights, test_lights};
+use crate::reference::one_bounce;
+use crate::shape::{CLOSED, DictionaryKind, Shape, Texels};
+use crate::svd::{energy_count, frobenius, mul, singular_values_gram};
+use faer::{Mat, MatRef};
+use penumbra_math::ohlsh::quadratic_to_ohlsh;
+use penumbra_math::progress::Progress;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Kind version of the `MRTD` sections this bake writes.
+pub const MRTD_KIND_VERSION: u32 = 1;
+
+/// Energy fractions of Table 3.2.
+pub const TABLE_3_2_FRACTIONS: [f64; 3] = [0.80, 0.90, 0.95];
+
+/// Bake parameters (defaults: the thesis settings, §3.6.1).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DictParams {
+    /// Which shapes.
+    pub dictionary: DictionaryKind,
+    /// Texels per face edge (thesis: 16).
+    pub face_res: usize,
+    /// Prior vectors `k_d` (thesis: 64).
+    pub k_d: usize,
+    /// Indirect modes `k_b` (thesis: 32).
+    pub k_b: usize,
+    /// Gather rays per texel for `F` (thesis: 16K).
+    pub rays: usize,
+    /// Diffuse albedo in `F`.
+    pub albedo: f64,
+    /// Enrichment iterations (App. A).
+    pub enrich: usize,
+    /// Face-restricted prior vectors per face in the enrichment fallback basis (0 = face
+    /// constants only, as in the thesis).
+    pub fallback_modes: usize,
+    /// How gathers read the texels they hit.
+    pub gather: Gather,
+    /// Prior light positions.
+    pub layout: LightLayout,
+    /// Radius of the prior and test sphere lights (cube edge = 1).
+    pub light_radius: f64,
+    /// Rays per texel of the vector-irradiance gather.
+    pub vector_rays: usize,
+    /// Volume probes per axis (`U_bvol` grid).
+    pub volume_res: usize,
+    /// Rays per volume probe.
+    pub probe_rays: usize,
+    /// Lights for the error measurements (per shape).
+    pub test_lights: usize,
+    /// Rays per texel of the path-traced reference.
+    pub reference_rays: usize,
+    /// Seed of every hashed random draw.
+    pub seed: u64,
+}
+
+impl DictParams {
+    /// Defaults for `dictionary`.
+    pub fn new(dictionary: DictionaryKind) -> Self {
+        Self {
+            dictionary,
+            face_res: 16,
+            k_d: 64,
+            k_b: 32,
+            rays: 16384,
+            albedo: 1.0,
+            enrich: 1,
+            fallback_modes: 8,
+            gather: Gather::Bilinear,
+            layout: LightLayout::Lattice,
+            light_radius: 0.05,
+            vector_rays: 1024,
+            volume_res: 4,
+            probe_rays: 4096,
+            test_lights: 8,
+            reference_rays: 1024,
+            seed: 0,
+        }
+    }
+
+    /// The normalised parameters as JSON (the asset's `meta.params`; hashed for cache keys).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "dictionary": self.dictionary.name(),
+            "face_res": self.face_res,
+            "k_d": self.k_d,
+            "k_b": self.k_b,
+            "rays": self.rays,
+            "albedo": self.albedo,
+            "enrich": self.enrich,
+            "fallback_modes": self.fallback_modes,
+            "gather": self.gather.name(),
+            "light_layout": self.layout.name(),
+            "light_radius": self.light_radius,
+            "vector_rays": self.vector_rays,
+            "volume_res": self.volume_res,
+            "probe_rays": self.probe_rays,
+            "test_lights": self.test_lights,
+            "reference_rays": self.reference_rays,
+            "seed": self.seed,
+        })
+    }
+
+    /// Checks every range; the message names the parameter and the allowed range.
+    pub fn validate(&self) -> Result<(), TransportError> {
+        let bad = |what: &str, v: String, range: &str| {
+            Err(TransportError::Param(format!("{what} {v} is out of range (allowed: {range})")))
+        };
+        if !(2..=24).contains(&self.face_res) {
+            return bad("face_res", self.face_res.to_string(), "2..=24");
+        }
+        if !(1..=256).contains(&self.k_d) {
+            return bad("kd", self.k_d.to_string(), "1..=256");
+        }
+        if !(1..=self.k_d).contains(&self.k_b) {
+            return bad("kb", self.k_b.to_string(), &format!("1..=kd = 1..={}", self.k_d));
+        }
+        if !(16..=1 << 20).contains(&self.rays) {
+            return bad("rays", self.rays.to_string(), "16..=1048576");
+        }
+        if !(self.albedo > 0.0 && self.albedo <= 1.0) {
+            return bad("albedo", self.albedo.to_string(), "0 < A <= 1");
+        }
+        if self.enrich > 8 {
+            return bad("enrich", self.enrich.to_string(), "0..=8");
+        }
+        if self.fallback_modes > self.k_d {
+            return bad("fallback_modes", self.fallback_modes.to_string(), &format!("0..=kd = 0..={}", self.k_d));
+        }
+        let max_r = self.layout.min_wall_distance().min(0.08);
+        if !(self.light_radius > 0.0 && self.light_radius <= max_r) {
+            return bad("light_radius", self.light_radius.to_string(), "0 < r <= 0.08");
+        }
+        if !(16..=65536).contains(&self.vector_rays) {
+            return bad("vector_rays", self.vector_rays.to_string(), "16..=65536");
+        }
+        if !(1..=16).contains(&self.volume_res) {
+            return bad("volume_res", self.volume_res.to_string(), "1..=16");
+        }
+        if !(16..=65536).contains(&self.probe_rays) {
+            return bad("probe_rays", self.probe_rays.to_string(), "16..=65536");
+        }
+        if !(1..=64).contains(&self.test_lights) {
+            return bad("test_lights", self.test_lights.to_string(), "1..=64");
+        }
+        if !(2..=65536).contains(&self.reference_rays) {
+            return bad("reference_rays", self.reference_rays.to_string(), "2..=65536");
+        }
+        Ok(())
+    }
+}
+
+/// Measurements of one shape.
+#[derive(Debug, Clone, Serialize)]
+pub struct ShapeMetrics {
+    /// Texel count n.
+    pub texels: usize,
+    /// Prior lights (columns of `L_d`).
+    pub prior_lights: usize,
+    /// Prior vectors kept (≤ k_d; the numerical rank of `L_d` caps it).
+    pub k_d: usize,
+    /// Indirect modes kept.
+    pub k_b: usize,
+    /// `‖U_b T_d→b l_d − F l_d‖ / ‖F l_d‖` over the test lights (not prior samples).
+    pub reconstruction_rel_error: f64,
+    /// `‖U_b T_d→b l_d − E_ref‖ / ‖E_ref‖` against the path-traced one-bounce reference.
+    pub reference_rel_error: f64,
+    /// `‖F l_d − E_ref‖ / ‖E_ref‖`: the part of the error that `F`'s discretisation makes.
+    pub transport_reference_rel_error: f64,
+    /// The reference's own Monte-Carlo error estimate (half the difference of two halves).
+    pub reference_noise_rel: f64,
+    /// Irradiance at the unperturbed normal from `U_b⃗` against `U_b`.
+    pub vector_irradiance_rel_error: f64,
+    /// Largest column sum of `F` divided by the albedo (energy: ≤ 1 means `‖F l‖₁ ≤ ρ‖l‖₁`).
+    pub f_max_column_sum: f64,
+}
+
+/// Table 3.2 of the thesis: singular values holding 80/90/95 % of `Σσ²`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Table32 {
+    /// `F`.
+    #[serde(rename = "F")]
+    pub f: [usize; 3],
+    /// `L_d`.
+    #[serde(rename = "L_d")]
+    pub l_d: [usize; 3],
+    /// `M` (before enrichment, as in the thesis).
+    #[serde(rename = "M")]
+    pub m: [usize; 3],
+    /// Samples n of the closed cube (6 × face_res²).
+    pub n: usize,
+}
+
+/// The five-red-faces case of App. A (Fig. A.1), measured on the closed cube.
+#[derive(Debug, Clone, Serialize)]
+pub struct RedBox {
+    /// RGB relative error of indirect light on the white face, without enrichment.
+    pub rel_error_before: f64,
+    /// The same with the enriched operators.
+    pub rel_error_after: f64,
+    /// Non-red indirect light arriving on the white face relative to the red (the reference
+    /// has none: a plane cannot light itself), without enrichment.
+    pub non_red_on_white_before: f64,
+    /// The same with the enriched operators.
+    pub non_red_on_white_after: f64,
+}
+
+/// The operators and samples of one shape.
+#[derive(Debug, Clone)]
+pub struct ShapeBake {
+    /// Layout.
+    pub texels: Texels,
+    /// Every singular value of `L_d`.
+    pub sigma_d_all: Vec<f64>,
+    /// The final prior scales `S` (after enrichment).
+    pub s: Vec<f64>,
+    /// Final operators.
+    pub reduced: Reduced,
+    /// `U_b⃗`: OHLSH of the radiance at each texel per mode, `n × k_b × 4`.
+    pub u_bvec: Vec<f64>,
+    /// Probe centres.
+    pub probes: Vec<[f64; 3]>,
+    /// `U_bvol`: order-3 SH per probe per mode, `probes × k_b × 9`.
+    pub u_bvol: Vec<f64>,
+    /// Measurements.
+    pub metrics: ShapeMetrics,
+}
+
+/// A baked dictionary.
+#[derive(Debug, Clone)]
+pub struct DictBake {
+    /// Parameters.
+    pub params: DictParams,
+    /// Shapes in dictionary order.
+    pub shapes: Vec<ShapeBake>,
+    /// Dictionary-level measurements.
+    pub metrics: DictMetrics,
+}
+
+/// The `--json` metrics of a dictionary bake (without `bytes`, `seconds`).
+#[derive(Debug, Clone, Serialize)]
+pub struct DictMetrics {
+    /// Table 3.2 for the closed cube.
+    pub table_3_2: Table32,
+    /// Per shape: reconstruction error against `F`.
+    pub reconstruction_rel_error: BTreeMap<String, f64>,
+    /// Per shape: error against the path-traced reference.
+    pub reference_rel_error: BTreeMap<String, f64>,
+    /// The five-red-faces error without enrichment.
+    pub enrichment_rel_error_before: f64,
+    /// The same after enrichment.
+    pub enrichment_rel_error_after: f64,
+    /// The five-red-faces case in full.
+    pub enrichment: RedBox,
+    /// Everything per shape.
+    pub shapes: BTreeMap<String, ShapeMetrics>,
+}
+
+/// Counts progress of one stage across all shapes.
+struct Stage<'a> {
+    name: &'static str,
+    done: AtomicU64,
+    total: u64,
+    progress: &'a dyn Progress,
+}
+
+impl Stage<'_> {
+    fn tick(&self, k: u64) {
+        let d = self.done.fetch_add(k, Ordering::Relaxed) + k;
+        self.progress.update(self.name, d.min(self.total), self.total);
+    }
+}
+
+/// Per-shape intermediate kept for the dictionary-level metrics.
+struct ShapeWork {
+    bake: ShapeBake,
+    table: Option<Table32>,
+    red: Option<RedBox>,
+}
+
+/// Bakes a dictionary.
+pub fn bake(params: &DictParams, progress: &dyn Progress) -> Result<DictBake, TransportError> {
+    params.validate()?;
+    let shapes = params.dictionary.shapes();
+    bake_shapes(params, &shapes, progress)
+}
+
+/// Bakes the given shapes (the closed cube must be among them for Table 3.2 and the App. A
+/// case; [`bake`] always includes it).
+pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progress) -> Result<DictBake, TransportError> {
+    let res = params.face_res;
+    let total_texels: u64 = shapes.iter().map(|s| Texels::new(*s, res).len() as u64).sum();
+    let stages = ShapeStages {
+        transport: Stage { name: "transport", done: AtomicU64::new(0), total: total_texels, progress },
+        vector: Stage { name: "vector irradiance", done: AtomicU64::new(0), total: total_texels, progress },
+        reference: Stage { name: "reference", done: AtomicU64::new(0), total: total_texels, progress },
+    };
+    let dirs = Dirs {
+        cosine: DirectionSet::cosine(params.rays),
+        hemi: DirectionSet::uniform_hemisphere(params.vector_rays),
+        sphere: DirectionSet::uniform_sphere(params.probe_rays),
+    };
+    let work: Vec<ShapeWork> = shapes
+        .par_iter()
+        .enumerate()
+        .map(|(id, s)| bake_shape(params, *s, id as u64, &dirs, &stages))
+        .collect::<Result<_, _>>()?;
+    let table = work.iter().find_map(|w| w.table.clone());
+    let red = work.iter().find_map(|w| w.red.clone());
+    let (Some(table_3_2), Some(enrichment)) = (table, red) else {
+        return Err(TransportError::Param("the dictionary must contain the closed cube".into()));
+    };
+    let mut metrics = DictMetrics {
+        table_3_2,
+        reconstruction_rel_error: BTreeMap::new(),
+        reference_rel_error: BTreeMap::new(),
+        enrichment_rel_error_before: enrichment.rel_error_before,
+        enrichment_rel_error_after: enrichment.rel_error_after,
+        enrichment,
+        shapes: BTreeMap::new(),
+    };
+    for w in &work {
+        let name = w.bake.texels.shape.name.to_string();
+        metrics.reconstruction_rel_error.insert(name.clone(), w.bake.metrics.reconstruction_rel_error);
+        metrics.reference_rel_error.insert(name.clone(), w.bake.metrics.reference_rel_error);
+        metrics.shapes.insert(name, w.bake.metrics.clone());
+    }
+    Ok(DictBake { params: params.clone(), shapes: work.into_iter().map(|w| w.bake).collect(), metrics })
+}
+
+struct ShapeStages<'a> {
+    transport: Stage<'a>,
+    vector: Stage<'a>,
+    reference: Stage<'a>,
+}
+
+struct Dirs {
+    cosine: DirectionSet,
+    hemi: DirectionSet,
+    sphere: DirectionSet,
+}
+
+/// The direct-light matrix `L_d` (n × lights) of `lights` at the texel centres.
+pub fn direct_matrix(tex: &Texels, lights: &[SphereLight]) -> Mat<f64> {
+    let dl = DirectLight::new();
+    let cols: Vec<Vec<f64>> = lights.par_iter().map(|l| dl.texel_vector(tex, l)).collect();
+    Mat::from_fn(tex.len(), lights.len(), |i, j| cols[j][i])
+}
+
+/// Relative Frobenius error `‖a − b‖ / ‖b‖` (0 when both vanish).
+pub fn rel_error(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
+    let num = frobenius((a - b).as_ref());
+    let den = frobenius(b);
+    if den > 0.0 { num / den } else { num }
+}
+
+/// `U_b (T_d→b L)`: the MRT one-bounce prediction for the direct-light columns `L`.
+pub fn predict(r: &Reduced, l: MatRef<'_, f64>) -> Mat<f64> {
+    mul(r.u_b.as_ref(), mul(r.t_d2b.as_ref(), l).as_ref())
+}
+
+fn bake_shape(
+    params: &DictParams,
+    shape: Shape,
+    id: u64,
+    dirs: &Dirs,
+    st: &ShapeStages<'_>,
+) -> Result<ShapeWork, TransportError> {
+    let tex = Texels::new(shape, params.face_res);
+    let n = tex.len();
+    let lights: Vec<SphereLight> = prior_lights(&shape, params.layout)
+        .into_iter()
+        .map(|c| SphereLight { centre: c, radius: params.light_radius })
+        .collect();
+    let l_d = direct_matrix(&tex, &lights);
+    let (prior0, sigma_d_all) = prior_from_samples(l_d.as_ref(), params.k_d)?;
+    drop(l_d);
+    let f =
+        transport_matrix(&tex, &dirs.cosine, params.albedo, params.gather, params.seed, id, &|k| st.transport.tick(k));
+    let before = reduce(f.as_ref(), &prior0, params.k_b)?;
+    let fallback = fallback_basis(&tex, &prior0, params.fallback_modes);
+    let mut prior: Prior = prior0.clone();
+    let mut reduced = before.clone();
+    for _ in 0..params.enrich {
+        prior = enrich(&prior, fallback.as_ref(), reduced.u_b.as_ref(), params.k_d)?;
+        reduced = reduce(f.as_ref(), &prior, params.k_b)?;
+    }
+    let kb = reduced.u_b.ncols();
+
+    // U_b⃗ (§3.5.4, App. B): quadratic SH of the radiance under the implicit lights → OHLSH.
+    let sh = texel_sh(&tex, &reduced.l_imp, params.albedo, &dirs.hemi, params.seed, id, &|k| st.vector.tick(k));
+    let a = quadratic_to_ohlsh();
+    let mut u_bvec = vec![0.0; n * kb * 4];
+    for (src, dst) in sh.chunks_exact(9).zip(u_bvec.chunks_exact_mut(4)) {
+        for i in 0..4 {
+            dst[i] = (0..9).map(|j| a[i * 9 + j] * src[j]).sum();
+        }
+    }
+    // U_bvol (§3.5.5): order-3 SH at the centres of a uniform grid of cells.
+    let g = params.volume_res;
+    let probes: Vec<[f64; 3]> = (0..g * g * g)
+        .map(|k| {
+            let c = |i: usize| (i as f64 + 0.5) / g as f64;
+            [c(k % g), c((k / g) % g), c(k / (g * g))]
+        })
+        .collect();
+    let u_bvol = probe_sh(&tex, &probes, &reduced.l_imp, params.albedo, &dirs.sphere, params.seed, id);
+
+    // Measurements against lights that are not prior samples.
+    let tl = test_lights(&shape, params.layout, params.test_lights, params.light_radius, params.seed, id);
+    let e_test = direct_matrix(&tex, &tl);
+    let f_e = mul(f.as_ref(), e_test.as_ref());
+    let mrt = predict(&reduced, e_test.as_ref());
+    let reconstruction_rel_error = rel_error(mrt.as_ref(), f_e.as_ref());
+    let reference =
+        one_bounce(&tex, &tl, params.albedo, params.reference_rays, params.seed, id, &|k| st.reference.tick(k));
+    let reference_rel_error = rel_error(mrt.as_ref(), reference.indirect.as_ref());
+    let transport_reference_rel_error = rel_error(f_e.as_ref(), reference.indirect.as_ref());
+    let noise = frobenius(reference.half_difference.as_ref());
+    let reference_noise_rel = noise / frobenius(reference.indirect.as_ref()).max(f64::MIN_POSITIVE);
+    let vector_irradiance_rel_error = vector_consistency(&u_bvec, &reduced.u_b);
+    let f_max_column_sum =
+        (0..n).map(|j| (0..n).map(|i| f[(i, j)]).sum::<f64>()).fold(0.0f64, f64::max) / params.albedo;
+
+    let (table, red) = if shape == CLOSED {
+        // Gram eigenvalues: the same counts as a bidiagonal SVD at ~60 % of its cost (svd.rs)
+        let sf = singular_values_gram(f.as_ref())?;
+        let counts = |s: &[f64]| TABLE_3_2_FRACTIONS.map(|p| energy_count(s, p));
+        let table = Table32 { f: counts(&sf), l_d: counts(&sigma_d_all), m: counts(&before.sigma_m), n };
+        (Some(table), Some(red_box(&tex, f.as_ref(), &e_test, &before, &reduced)))
+    } else {
+        (None, None)
+    };
+    let metrics = ShapeMetrics {
+        texels: n,
+        prior_lights: lights.len(),
+        k_d: prior.k(),
+        k_b: kb,
+        reconstruction_rel_error,
+        reference_rel_error,
+        transport_reference_rel_error,
+        reference_noise_rel,
+        vector_irradiance_rel_error,
+        f_max_column_sum,
+    };
+    let bake = ShapeBake { texels: tex, sigma_d_all, s: prior.s.clone(), reduced, u_bvec, probes, u_bvol, metrics };
+    Ok(ShapeWork { bake, table, red })
+}
+
+/// Irradiance at the unperturbed normal from the OHLSH coefficients
+/// (`E = π a₀ y₀ + (2π/3) a₁₀ y₁₀(+z)`) against `U_b`, relative Frobenius error.
+fn vector_consistency(u_bvec: &[f64], u_b: &Mat<f64>) -> f64 {
+    let kb = u_b.ncols();
+    let c0 = 0.282_094_791_773_878_14;
+    let c1 = 0.488_602_511_902_919_9;
+    let e = Mat::from_fn(u_b.nrows(), kb, |i, m| {
+        let a = &u_bvec[(i * kb + m) * 4..(i * kb + m) * 4 + 4];
+        core::f64::consts::PI * c0 * a[0] + 2.0 * core::f64::consts::PI / 3.0 * c1 * a[2]
+    });
+    rel_error(e.as_ref(), u_b.as_ref())
+}
+
+/// App. A, Fig. A.1: the closed cube with five red faces (reflectance `(ρ, 0, 0)`) and a white
+/// floor (`(ρ, ρ, ρ)`), lit by the test lights. The runtime input per channel is the
+/// reflectance-weighted direct light; the reference is `F` applied to it.
+fn red_box(tex: &Texels, f: MatRef<'_, f64>, e: &Mat<f64>, before: &Reduced, after: &Reduced) -> RedBox {
+    const WHITE: usize = 2;
+    let white = tex.face_range(WHITE);
+    let green = Mat::from_fn(e.nrows(), e.ncols(), |i, j| if white.contains(&i) { e[(i, j)] } else { 0.0 });
+    let ref_r = mul(f, e.as_ref());
+    let ref_g = mul(f, green.as_ref());
+    let on_white = |a: &Mat<f64>| Mat::from_fn(white.len(), a.ncols(), |i, j| a[(white.start + i, j)]);
+    let measure = |r: &Reduced| {
+        let (mr, mg) = (on_white(&predict(r, e.as_ref())), on_white(&predict(r, green.as_ref())));
+        let (rr, rg) = (on_white(&ref_r), on_white(&ref_g));
+        let err2 = frobenius((&mr - &rr).as_ref()).powi(2) + 2.0 * frobenius((&mg - &rg).as_ref()).powi(2);
+        let ref2 = frobenius(rr.as_ref()).powi(2) + 2.0 * frobenius(rg.as_ref()).powi(2);
+        ((err2 / ref2).sqrt(), frobenius(mg.as_ref()) / frobenius(rr.as_ref()))
+    };
+    let (rel_error_before, non_red_on_white_before) = measure(before);
+    let (rel_error_after, non_red_on_white_after) = measure(after);
+    RedBox { rel_error_before, rel_error_after, non_red_on_white_before, non_red_on_white_after }
+}

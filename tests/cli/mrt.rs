@@ -1,0 +1,193 @@
+use crate::{listing, penumbra, run};
+use penumbra_asset::AssetFile;
+use serde_json::Value;
+
+/// Small, fast settings (the thesis settings are exercised by crates/transport's tests and
+/// by `make bench`).
+const SMALL: &[&str] = &[
+    "--face-res",
+    "4",
+    "--rays",
+    "512",
+    "--kd",
+    "24",
+    "--kb",
+    "12",
+    "--vector-rays",
+    "64",
+    "--volume-res",
+    "2",
+    "--probe-rays",
+    "64",
+    "--test-lights",
+    "3",
+    "--reference-rays",
+    "128",
+];
+
+fn dict_json(extra: &[&str], out: &std::path::Path) -> Value {
+    let (code, stdout, stderr) =
+        run(penumbra().args(["mrt", "dict"]).args(SMALL).args(extra).arg("-o").arg(out).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).expect("one JSON object on stdout")
+}
+
+#[test]
+fn json_keys_are_present_and_honest() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d.mrtd");
+    let v = dict_json(&["--dictionary", "cube2d"], &out);
+    for key in [
+        "table_3_2",
+        "reconstruction_rel_error",
+        "reference_rel_error",
+        "enrichment_rel_error_before",
+        "enrichment_rel_error_after",
+        "enrichment",
+        "shapes",
+        "bytes",
+        "seconds",
+        "output",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key}");
+    }
+    let t = &v["table_3_2"];
+    assert_eq!(t["n"], 6 * 16);
+    for m in ["F", "L_d", "M"] {
+        let c: Vec<u64> = t[m].as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect();
+        assert_eq!(c.len(), 3);
+        assert!(c[0] >= 1 && c[0] <= c[1] && c[1] <= c[2], "{m}: {c:?}");
+    }
+    // energy concentrates: the one-bounce operator needs more modes than the prior-space one
+    assert!(t["F"][2].as_u64().unwrap() > t["M"][2].as_u64().unwrap());
+    let names = ["closed", "dead_end", "straight", "corner", "tee", "cross"];
+    for key in ["reconstruction_rel_error", "reference_rel_error"] {
+        let m = v[key].as_object().unwrap();
+        assert_eq!(m.len(), 6, "{key}");
+        for n in names {
+            let e = m[n].as_f64().unwrap();
+            assert!(e.is_finite() && e > 0.0 && e < 1.0, "{key}.{n} = {e}");
+        }
+    }
+    assert!(v["enrichment_rel_error_after"].as_f64().unwrap() < v["enrichment_rel_error_before"].as_f64().unwrap());
+    assert_eq!(v["bytes"].as_u64().unwrap(), std::fs::metadata(&out).unwrap().len());
+    assert!(v["seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["output"].as_str().unwrap(), out.display().to_string());
+}
+
+#[test]
+fn asset_holds_every_section_and_its_operators_reproduce_a_known_answer() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.mrtd");
+    let v = dict_json(&["--dictionary", "closed-cube", "--albedo", "0.5"], &out);
+    let file = AssetFile::open(&out).unwrap();
+    let a = file.asset();
+    assert_eq!(a.kind().as_str(), "MRTD");
+    let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
+    assert_eq!(meta["kind_version"], 1);
+    assert_eq!(meta["shapes"][0]["name"], "closed");
+    assert_eq!(meta["metrics"]["table_3_2"], v["table_3_2"]);
+    let known = penumbra_transport::asset::section_names(&["closed"]);
+    let known: Vec<&str> = known.iter().map(String::as_str).collect();
+    a.require_known(&known).unwrap();
+    for name in &known {
+        assert!(a.section(name).is_some(), "{name}");
+    }
+    let n = 6 * 16;
+    let kb = 12;
+    let dims = |s: &str| a.section(s).unwrap().dims().to_vec();
+    assert_eq!(dims("closed.u_b"), vec![n, kb]);
+    assert_eq!(dims("closed.t_d2b"), vec![kb, n]);
+    assert_eq!(dims("closed.u_bvec"), vec![n, kb, 4]);
+    assert_eq!(dims("closed.u_bvol"), vec![8, kb, 9]);
+    assert_eq!(dims("closed.positions"), vec![n, 3]);
+    assert_eq!(dims("face_frames"), vec![6, 4, 3]);
+    // A closed box under uniform direct light E = 1 reflects ρ·1 everywhere (every gather ray
+    // lands on a wall): b = T_d→b·1, U_b·b ≈ ρ (the enriched prior holds the face constants).
+    let u = a.section("closed.u_b").unwrap().to_f64_vec().unwrap();
+    let t = a.section("closed.t_d2b").unwrap().to_f64_vec().unwrap();
+    let b: Vec<f64> = (0..kb).map(|m| (0..n).map(|j| t[m * n + j]).sum()).collect();
+    let e: Vec<f64> = (0..n).map(|i| (0..kb).map(|m| u[i * kb + m] * b[m]).sum()).collect();
+    let worst = e.iter().map(|x| (x - 0.5).abs()).fold(0.0, f64::max) / 0.5;
+    let rms = (e.iter().map(|x| (x - 0.5).powi(2)).sum::<f64>() / n as f64).sqrt() / 0.5;
+    // what remains is the truncation to k_d = 24, k_b = 12 modes (2 % rms, 3.4 % worst here)
+    assert!(rms < 0.03 && worst < 0.05, "rms {rms}, worst {worst}: {e:?}");
+    // texel positions lie on the walls they claim: |n·p| is 0 or 1 along the normal axis
+    let p = a.section("closed.positions").unwrap().to_f64_vec().unwrap();
+    let nm = a.section("closed.normals").unwrap().to_f64_vec().unwrap();
+    for i in 0..n {
+        let d: f64 = (0..3).map(|k| p[i * 3 + k] * nm[i * 3 + k]).sum();
+        assert!(d.abs() < 1e-6 || (d + 1.0).abs() < 1e-6, "texel {i}");
+    }
+}
+
+#[test]
+fn out_of_range_options_are_rejected_with_the_allowed_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.mrtd");
+    let cases: &[(&[&str], &str)] = &[
+        (&["--face-res", "1"], "2..=24"),
+        (&["--face-res", "25"], "2..=24"),
+        (&["--albedo", "0"], "0 < A <= 1"),
+        (&["--light-radius", "0.2"], "0 < r <= 0.08"),
+        (&["--enrich", "9"], "0..=8"),
+        (&["--kd", "8", "--kb", "9"], "1..=kd"),
+        (&["--dictionary", "sphere"], "cube2d"),
+    ];
+    for (args, allowed) in cases {
+        let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(*args).arg("-o").arg(&out));
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stderr.contains(allowed), "{args:?}: {stderr}");
+    }
+    assert!(listing(dir.path()).is_empty());
+}
+
+#[test]
+fn same_bytes_for_any_thread_count_and_across_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for (i, threads) in ["1", "2", "2"].iter().enumerate() {
+        let out = dir.path().join(format!("d{i}.mrtd"));
+        let (code, _, stderr) =
+            run(penumbra().args(["--threads", threads, "mrt", "dict"]).args(SMALL).arg("-o").arg(&out));
+        assert_eq!(code, 0, "{stderr}");
+        files.push(std::fs::read(&out).unwrap());
+    }
+    assert_eq!(files[0], files[1]);
+    assert_eq!(files[1], files[2]);
+}
+
+#[test]
+fn bake_config_mrt_stage_bakes_then_skips_and_validates_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let body = "output_dir = \"out\"\n[mrt]\ndictionary = \"closed-cube\"\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\n\
+                vector_rays = 64\nvolume_res = 2\nprobe_rays = 64\ntest_lights = 3\nreference_rays = 128\n";
+    std::fs::write(&cfg, body).unwrap();
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let stage = v["stages"].as_array().unwrap().iter().find(|s| s["name"] == "mrt").unwrap().clone();
+    assert_eq!(stage["status"], "baked");
+    assert_eq!(stage["kind"], "MRTD");
+    assert_eq!(stage["metrics"]["table_3_2"]["n"], 96);
+    let baked = std::fs::read(dir.path().join("out/dictionary.mrtd")).unwrap();
+    let (_, stdout, _) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["stages"][0]["status"], "up-to-date");
+    // same bytes as the standalone command with the same parameters
+    let standalone = dir.path().join("s.mrtd");
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "dict", "--dictionary", "closed-cube"]).args(SMALL).arg("-o").arg(&standalone));
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(std::fs::read(&standalone).unwrap(), baked);
+    // bad keys name the key path
+    for (bad, what) in
+        [("kd = 16\nkb = 30\n", "mrt.kb"), ("gather = \"nearest\"\n", "mrt.gather"), ("face_rez = 3\n", "face_rez")]
+    {
+        std::fs::write(&cfg, format!("output_dir = \"out\"\n[mrt]\n{bad}")).unwrap();
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(what), "{stderr}");
+    }
+}
