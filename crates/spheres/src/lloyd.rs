@@ -293,12 +293,22 @@ fn update_sphere(model: &VolumeModel, points: &[[f64; 3]], start: [f64; 3]) -> (
     (Sphere::new(res.x, r), res.f)
 }
 
+/// Largest radius tabulated by the clustering profiles (canonical units; the canonical
+/// bounding-box diagonal is 1).
+const PROFILE_MAX_RADIUS: f64 = 0.5;
+
+/// Slack of the per-cell candidate test (canonical volume units; the canonical mesh has unit
+/// bounding-box diagonal, so real cost differences are many orders of magnitude larger).
+const CANDIDATE_SLACK: f64 = 1e-15;
+
 /// Flood-fill clustering (see the module docs). Returns the cluster of every element.
 fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<u32> {
     let n = centers.len();
     let ne = samples.elements.len();
     let spec = model.grid().spec();
-    // radial profiles up to the farthest grid corner
+    // Radial profiles up to the farthest grid corner, but at most half the (unit) canonical
+    // diagonal: beyond the table a profile counts all growth as outside volume, an upper
+    // bound that only matters for spheres that would already be enormous.
     let profiles: Vec<_> = centers
         .par_iter()
         .map(|&c| {
@@ -309,13 +319,14 @@ fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<
                 });
                 r_max = r_max.max(dist(c, corner));
             }
-            model.profile(c, r_max)
+            model.profile(c, r_max.min(PROFILE_MAX_RADIUS))
         })
         .collect();
     let mut assign = vec![u32::MAX; ne];
     let mut radius = vec![0.0f64; n];
     let mut base: Vec<f64> = (0..n).map(|i| profiles[i].at(radius[i])).collect(); // profile at the current radius
     let mut lb = vec![0.0f64; n];
+    let mut cands: Vec<usize> = Vec::with_capacity(n);
     let mut queued = vec![false; samples.cell_count()];
     let mut queue = std::collections::VecDeque::new();
     let elem_dist = |e: usize, c: [f64; 3]| -> f64 {
@@ -348,25 +359,49 @@ fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<
     let mut next_unassigned = 0usize;
     loop {
         while let Some(cell) = queue.pop_front() {
+            // Candidate clusters for the whole cell: with B the box of the cell's element
+            // points, a cluster's cost for any element lies between its cost at the nearest
+            // and at the farthest point of B. Clusters whose lower bound exceeds the smallest
+            // upper bound can win no element of the cell (radii only grow while the cell is
+            // processed, which lowers only the growing clusters' bounds), so only the others
+            // are evaluated; the result equals a scan of all clusters.
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for &e in samples.cell(cell) {
+                for &p in samples.elements[e as usize].point_ids() {
+                    let q = samples.points[p as usize];
+                    for d in 0..3 {
+                        lo[d] = lo[d].min(q[d]);
+                        hi[d] = hi[d].max(q[d]);
+                    }
+                }
+            }
+            let mut min_ub = f64::INFINITY;
+            for i in 0..n {
+                let c = centers[i];
+                let (mut near, mut far) = (0.0, 0.0);
+                for d in 0..3 {
+                    let out = (lo[d] - c[d]).max(c[d] - hi[d]).max(0.0);
+                    near += out * out;
+                    let f = (c[d] - lo[d]).abs().max((hi[d] - c[d]).abs());
+                    far += f * f;
+                }
+                let (near, far) = (near.sqrt(), far.sqrt());
+                lb[i] = if near <= radius[i] { 0.0 } else { (profiles[i].at(near) - base[i]).max(0.0) };
+                let ub = if far <= radius[i] { 0.0 } else { (profiles[i].at(far) - base[i]).max(0.0) };
+                min_ub = min_ub.min(ub);
+            }
+            cands.clear();
+            // (a tolerance far above rounding noise, far below any real volume difference)
+            cands.extend((0..n).filter(|&i| lb[i] <= min_ub + CANDIDATE_SLACK));
             for &e in samples.cell(cell) {
                 let e = e as usize;
                 if assign[e] != u32::MAX {
                     continue;
                 }
-                // lower bounds from the representative point (inside the element, so no
-                // farther than its farthest corner); exact costs only where they can win
-                let rep = samples.elements[e].rep;
-                for i in 0..n {
-                    let dr = dist(rep, centers[i]);
-                    lb[i] = if dr <= radius[i] { 0.0 } else { profiles[i].at(dr) - base[i] };
-                }
                 let mut best = (f64::INFINITY, f64::INFINITY, 0usize);
-                for i in 0..n {
-                    if lb[i] > best.0 {
-                        continue;
-                    }
+                for &i in &cands {
                     let d = elem_dist(e, centers[i]);
-                    let cost = if d <= radius[i] { 0.0 } else { profiles[i].at(d) - base[i] };
+                    let cost = if d <= radius[i] { 0.0 } else { (profiles[i].at(d) - base[i]).max(0.0) };
                     if cost < best.0 || (cost == best.0 && d < best.1) {
                         best = (cost, d, i);
                     }

@@ -150,7 +150,9 @@ impl<'a> VolumeModel<'a> {
             }
             let shell = k43 * (r1.powi(3) - r0.powi(3));
             inside += shell * f / dirs.len() as f64;
-            out.push((k43 * r1.powi(3) - inside).max(0.0));
+            // monotone by construction (rounding of the difference could dip by an ulp)
+            let prev = out[out.len() - 1];
+            out.push((k43 * r1.powi(3) - inside).max(prev));
         }
         Profile { dr, out }
     }
