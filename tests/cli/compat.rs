@@ -36,6 +36,23 @@ fn corpus_v1_still_loads() {
                     assert!((a - b).abs() < 1e-5);
                 }
             }
+            "SPHR" => {
+                a.require_known(penumbra_spheres::asset::SPHR_SECTIONS).unwrap();
+                let set = penumbra_spheres::asset::read(&a).unwrap();
+                assert_eq!(set.spheres.len() as u64, meta["metrics"]["count"].as_u64().unwrap());
+                // every stored parent bounds its stored children (f64 test on f32 values)
+                if let Some(h) = &set.hierarchy {
+                    for (l, level) in h.levels.iter().enumerate() {
+                        let below: &[[f32; 4]] = h.levels.get(l + 1).map_or(&set.spheres, |v| v.as_slice());
+                        for (node, &(first, count)) in level.iter().zip(&h.children[l]) {
+                            for c in &below[first as usize..(first + count) as usize] {
+                                let d = (0..3).map(|k| (node[k] as f64 - c[k] as f64).powi(2)).sum::<f64>().sqrt();
+                                assert!(d + c[3] as f64 <= node[3] as f64);
+                            }
+                        }
+                    }
+                }
+            }
             other => panic!("no compatibility check for kind {other}"),
         }
         kinds.push(a.kind().as_str().to_string());
