@@ -33,6 +33,8 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Run every stage of a bake config (only the stages whose inputs changed).
     Bake(BakeArgs),
+    /// Measure an asset's accuracy against the brute-force reference.
+    Verify(VerifyArgs),
     /// Print the JSON Schema of the bake config.
     Schema,
 }
@@ -192,4 +194,19 @@ pub struct SpheresExportArgs {
     /// Icosphere subdivisions per sphere (0 = 20 triangles, 2 = 320).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=5))]
     pub subdivisions: u32,
+}
+
+/// `penumbra verify`.
+#[derive(Debug, Args)]
+pub struct VerifyArgs {
+    /// What to verify.
+    #[command(subcommand)]
+    pub command: VerifyCommand,
+}
+
+/// Subcommands of `penumbra verify`.
+#[derive(Debug, Subcommand)]
+pub enum VerifyCommand {
+    /// Sphere-proxy soft shadows (runtime) against ray-traced truth (SHEXP §4–7, Fig. 7).
+    Shadows(crate::commands::verify_shadows::VerifyShadowsArgs),
 }

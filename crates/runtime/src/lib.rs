@@ -4,12 +4,17 @@
 //! - [`ShTables`]: a validated view of an `SHTB` tables asset (lookups, SH products, SH
 //!   exponentials HYB/OL/PS*-p).
 //! - [`shadows`]: soft shadows from sphere proxies at a receiver (log accumulation,
-//!   self-shadow replacement rules, exponentiation, windowed diffuse shading).
+//!   self-shadow replacement rules, exponentiation, windowed diffuse shading, indirect light
+//!   from proxies, hierarchy cuts with ratio vectors).
+//! - [`SphereSet`]: a validated view of an `SPHR` sphere-proxy asset (leaves, hierarchy, skin)
+//!   and its cut for a receiver cluster (SHEXP §6.3, eq. 36).
 
 mod error;
 pub mod sh;
 pub mod shadows;
+pub mod sphere_set;
 mod tables;
 
 pub use error::RuntimeError;
+pub use sphere_set::{NodeRef, SphereSet};
 pub use tables::{MAX_ORDER, ShTables};

@@ -10,6 +10,10 @@ pub struct ShBasis {
     order: usize,
     /// `k[l * MAX_ORDER + m]` = `K_l^m` (times √2 for m > 0).
     k: [f32; MAX_ORDER * MAX_ORDER],
+    /// Associated-Legendre recurrence `P_l = a·z·P_{l−1} − b·P_{l−2}` for `l ≥ m + 2`:
+    /// `a = (2l−1)/(l−m)`, `b = (l+m−1)/(l−m)` (precomputed: no division per evaluation).
+    ra: [f32; MAX_ORDER * MAX_ORDER],
+    rb: [f32; MAX_ORDER * MAX_ORDER],
 }
 
 impl ShBasis {
@@ -27,7 +31,15 @@ impl ShBasis {
                 k[l * MAX_ORDER + m] = (s * ((2 * l + 1) as f64 / (4.0 * core::f64::consts::PI) * ratio).sqrt()) as f32;
             }
         }
-        Self { order, k }
+        let mut ra = [0.0f32; MAX_ORDER * MAX_ORDER];
+        let mut rb = [0.0f32; MAX_ORDER * MAX_ORDER];
+        for l in 0..order {
+            for m in 0..l.saturating_sub(1) {
+                ra[l * MAX_ORDER + m] = (2 * l - 1) as f32 / (l - m) as f32;
+                rb[l * MAX_ORDER + m] = (l + m - 1) as f32 / (l - m) as f32;
+            }
+        }
+        Self { order, k, ra, rb }
     }
 
     /// Number of bands.
@@ -36,7 +48,22 @@ impl ShBasis {
     }
 
     /// Writes `y_i(dir)` for `i < order²` into `out`; `dir` must be unit length.
+    #[inline]
     pub fn eval(&self, dir: [f32; 3], out: &mut [f32]) {
+        self.visit(dir, |i, _, v| out[i] = v);
+    }
+
+    /// Adds `w[l] · y_lm(dir)` to `f[lm]` for every `lm < order²` (the rotation rule of a
+    /// zonal function with starred coefficients `w`, accumulated in place).
+    #[inline]
+    pub fn add_zonal(&self, dir: [f32; 3], w: &[f32], f: &mut [f32]) {
+        let w = &w[..self.order];
+        self.visit(dir, |i, l, v| f[i] += w[l] * v);
+    }
+
+    /// Calls `sink(index, band, y)` for every basis function at `dir`.
+    #[inline(always)]
+    fn visit(&self, dir: [f32; 3], mut sink: impl FnMut(usize, usize, f32)) {
         let order = self.order;
         let [x, y, z] = dir;
         let (mut c, mut s) = (1.0f32, 0.0f32);
@@ -55,17 +82,17 @@ impl ShBasis {
                     q_prev = q;
                     q = z * (2 * m + 1) as f32 * q_mm;
                 } else if l > m + 1 {
-                    let next = ((2 * l - 1) as f32 * z * q - (l + m - 1) as f32 * q_prev) / (l - m) as f32;
+                    let next = self.ra[l * MAX_ORDER + m] * z * q - self.rb[l * MAX_ORDER + m] * q_prev;
                     q_prev = q;
                     q = next;
                 }
                 let kq = self.k[l * MAX_ORDER + m] * q;
                 let base = l * (l + 1);
                 if m == 0 {
-                    out[base] = kq;
+                    sink(base, l, kq);
                 } else {
-                    out[base + m] = kq * c;
-                    out[base - m] = kq * s;
+                    sink(base + m, l, kq * c);
+                    sink(base - m, l, kq * s);
                 }
             }
         }

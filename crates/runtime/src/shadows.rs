@@ -183,7 +183,6 @@ impl<'a> ShadowEvaluator<'a> {
         let n2 = self.order * self.order;
         f[..n2].iter_mut().for_each(|v| *v = 0.0);
         let mut zh = [0.0f32; MAX_ORDER];
-        let mut y = [0.0f32; N2];
         for &s0 in spheres {
             let s = if self.options.self_shadow_rules {
                 match replace(s0, p, n) {
@@ -193,7 +192,7 @@ impl<'a> ShadowEvaluator<'a> {
             } else {
                 s0
             };
-            self.add_sphere_log(p, s, 1.0, None, &mut zh, &mut y, f);
+            self.add_sphere_log(p, s, 1.0, None, &mut zh, f);
         }
     }
 
@@ -206,7 +205,6 @@ impl<'a> ShadowEvaluator<'a> {
         scale: f32,
         w: Option<&[f32]>,
         zh: &mut [f32; MAX_ORDER],
-        y: &mut [f32; N2],
         f: &mut [f32],
     ) {
         let order = self.order;
@@ -218,18 +216,16 @@ impl<'a> ShadowEvaluator<'a> {
         // p outside after the replacement rules; if still inside (rules off), treat the
         // blocker as covering the whole hemisphere seen from the surface: α = 1.
         let alpha = (s.radius / d).min(1.0);
-        self.tables.proxy_log_occlusion(alpha, &mut zh[..order]);
-        if zh[0] == 0.0 {
+        if alpha <= self.tables.alpha_cut() {
             return; // outside the sphere of influence (smooth clamp, IBPA §4.1)
         }
-        let dir = [v[0] / d, v[1] / d, v[2] / d];
-        self.tables.basis().eval(dir, &mut y[..order * order]);
+        self.tables.proxy_log_occlusion(alpha, &mut zh[..order]);
+        let inv = 1.0 / d;
+        let dir = [v[0] * inv, v[1] * inv, v[2] * inv];
         for l in 0..order {
-            let wl = scale * zh[l] * w.map_or(1.0, |w| w[l]);
-            for i in l * l..(l + 1) * (l + 1) {
-                f[i] += wl * y[i];
-            }
+            zh[l] *= scale * w.map_or(1.0, |w| w[l]);
         }
+        self.tables.basis().add_zonal(dir, &zh[..order], f);
     }
 
     /// `g = exp*(f)` with the configured method.
@@ -284,6 +280,125 @@ impl<'a> ShadowEvaluator<'a> {
         let mut g = [0.0f32; N2];
         let n2 = self.order * self.order;
         self.accumulate_log(p, n, spheres, &mut f[..n2]);
+        self.exponentiate(&f[..n2], &mut g[..n2]);
+        self.shade(n, &g[..n2])
+    }
+}
+
+impl ShadowEvaluator<'_> {
+    /// Shadowed irradiance by *product-space* accumulation (SHEXP eq. 6, the method of Zhou
+    /// et al. 2005 that log space replaces): `g = g₁ * g₂ * … * g_m`, each blocker's cap
+    /// visibility (unclamped, no sphere of influence) multiplied in with the order-n triple
+    /// product and truncated after every product. Same self-shadow rules and shading as
+    /// [`ShadowEvaluator::irradiance`]; O(spheres × Γ nonzeros), for verification.
+    pub fn irradiance_product(&self, p: [f32; 3], n: [f32; 3], spheres: &[Sphere]) -> [f32; 3] {
+        let order = self.order;
+        let n2 = order * order;
+        let mut g = [0.0f32; N2];
+        g[0] = SQRT_4PI;
+        let mut gi = [0.0f32; N2];
+        let mut tmp = [0.0f32; N2];
+        let mut zh = [0.0f32; MAX_ORDER];
+        for &s0 in spheres {
+            let Some(s) = self.effective(s0, p, n) else { continue };
+            let v = sub(s.center, p);
+            let d = dot(v, v).sqrt();
+            if d.is_nan() || d <= 0.0 || s.radius <= 0.0 {
+                continue;
+            }
+            let theta = (s.radius / d).min(1.0).asin();
+            self.tables.cap_visibility(theta, &mut zh[..order]);
+            self.tables.basis().rotate_zonal(&zh[..order], [v[0] / d, v[1] / d, v[2] / d], &mut gi[..n2]);
+            self.tables.product(&g[..n2], &gi[..n2], &mut tmp[..n2]);
+            g[..n2].copy_from_slice(&tmp[..n2]);
+        }
+        self.shade(n, &g[..n2])
+    }
+}
+
+/// A blocker of a receiver cluster (SHEXP §6.3): a node of the cluster's cut with its
+/// ratio vector `w` (eq. 37, one weight per band; 1 for leaves).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CutBlocker {
+    /// The node's bounding sphere.
+    pub sphere: Sphere,
+    /// Per-band scaling of the sphere's log visibility (eq. 37).
+    pub w: [f32; MAX_ORDER],
+}
+
+impl ShadowEvaluator<'_> {
+    /// The blockers of a receiver cluster from its cut (see
+    /// [`SphereSet::cut`](crate::sphere_set::SphereSet::cut)), with ratio vectors computed at
+    /// the cluster's central point `(p_star, n_star)`: `w_l = Σ_m f_b f_d / Σ_m f_b²` with `f_b`
+    /// the log visibility of the node's bounding sphere and `f_d` the summed log visibility of
+    /// the leaves below it (SHEXP eq. 37; the self-shadow rules applied as at run time). `out`
+    /// is cleared first.
+    pub fn cluster_blockers(
+        &self,
+        set: &crate::sphere_set::SphereSet<'_>,
+        cut: &[crate::sphere_set::NodeRef],
+        p_star: [f32; 3],
+        n_star: [f32; 3],
+        out: &mut Vec<CutBlocker>,
+    ) {
+        use crate::sphere_set::NodeRef;
+        out.clear();
+        let order = self.order;
+        let n2 = order * order;
+        let mut zh = [0.0f32; MAX_ORDER];
+        for &node in cut {
+            let sphere = set.sphere(node);
+            let mut w = [1.0f32; MAX_ORDER];
+            if let NodeRef::Node(_) = node {
+                let mut fb = [0.0f32; N2];
+                let mut fd = [0.0f32; N2];
+                if let Some(s) = self.effective(sphere, p_star, n_star) {
+                    self.add_sphere_log(p_star, s, 1.0, None, &mut zh, &mut fb[..n2]);
+                }
+                set.for_leaves_below(node, &mut |leaf| {
+                    if let Some(s) = self.effective(set.leaf(leaf as usize), p_star, n_star) {
+                        self.add_sphere_log(p_star, s, 1.0, None, &mut zh, &mut fd[..n2]);
+                    }
+                });
+                for l in 0..order {
+                    let (mut num, mut den) = (0.0f32, 0.0f32);
+                    for i in l * l..(l + 1) * (l + 1) {
+                        num += fb[i] * fd[i];
+                        den += fb[i] * fb[i];
+                    }
+                    w[l] = if den > 0.0 { num / den } else { 1.0 };
+                }
+            }
+            out.push(CutBlocker { sphere, w });
+        }
+    }
+
+    /// The sphere a receiver at `(p, n)` accumulates for blocker `s` (self-shadow rules when
+    /// enabled).
+    #[inline]
+    fn effective(&self, s: Sphere, p: [f32; 3], n: [f32; 3]) -> Option<Sphere> {
+        if self.options.self_shadow_rules { replace(s, p, n) } else { Some(s) }
+    }
+
+    /// Accumulates a receiver's log visibility from its cluster's blockers (SHEXP eq. 38:
+    /// each sphere's zonal log visibility scaled per band by its ratio vector).
+    pub fn accumulate_log_blockers(&self, p: [f32; 3], n: [f32; 3], blockers: &[CutBlocker], f: &mut [f32]) {
+        let n2 = self.order * self.order;
+        f[..n2].iter_mut().for_each(|v| *v = 0.0);
+        let mut zh = [0.0f32; MAX_ORDER];
+        for b in blockers {
+            if let Some(s) = self.effective(b.sphere, p, n) {
+                self.add_sphere_log(p, s, 1.0, Some(&b.w[..self.order]), &mut zh, f);
+            }
+        }
+    }
+
+    /// Shadowed irradiance at `(p, n)` from a cluster's blockers.
+    pub fn irradiance_blockers(&self, p: [f32; 3], n: [f32; 3], blockers: &[CutBlocker]) -> [f32; 3] {
+        let mut f = [0.0f32; N2];
+        let mut g = [0.0f32; N2];
+        let n2 = self.order * self.order;
+        self.accumulate_log_blockers(p, n, blockers, &mut f[..n2]);
         self.exponentiate(&f[..n2], &mut g[..n2]);
         self.shade(n, &g[..n2])
     }

@@ -18,7 +18,14 @@ pub struct ShTables<'a> {
     k: usize,
     gamma_index: &'a [u16],
     gamma_value: &'a [f32],
+    /// Γ for squaring `g * g`: entries with `j ≤ k`, off-diagonal ones doubled (built once at
+    /// load; halves the work of HYB's and PS*'s squarings).
+    gamma_square: Vec<(u8, u8, u8, f32)>,
+    /// Largest α whose log-occlusion row and everything below it are zero (IBPA's sphere of
+    /// influence): blockers at or below it contribute nothing and are skipped early.
+    alpha_cut: f32,
     cap_log: &'a [f32],
+    cap_visibility: &'a [f32],
     proxy_log_occlusion: &'a [f32],
     proxy_visibility: &'a [f32],
     indirect_d: &'a [f32],
@@ -78,12 +85,26 @@ impl<'a> ShTables<'a> {
         }
         let dom = f32s(asset, "ol_domain", &[2])?;
         let eta = f32s(asset, "eta", &[4])?;
+        let gamma_value = f32s(asset, "gamma_value", &[nnz])?;
+        let gamma_square = gamma_index
+            .chunks_exact(3)
+            .zip(gamma_value)
+            .filter(|(ix, _)| ix[1] <= ix[2])
+            .map(|(ix, &v)| (ix[0] as u8, ix[1] as u8, ix[2] as u8, if ix[1] < ix[2] { 2.0 * v } else { v }))
+            .collect();
+        let plo = f32s(asset, "proxy_log_occlusion", &[k, order])?;
+        let first_nonzero = (0..k).find(|&r| plo[r * order..(r + 1) * order].iter().any(|&v| v != 0.0)).unwrap_or(k);
+        // α grid: α_r = r/(K−1); at or below α_{r0−1} the interpolated row is zero
+        let alpha_cut = if first_nonzero == 0 { -1.0 } else { (first_nonzero - 1) as f32 / (k - 1) as f32 };
         Ok(Self {
+            gamma_square,
+            alpha_cut,
             order,
             k,
             gamma_index,
-            gamma_value: f32s(asset, "gamma_value", &[nnz])?,
+            gamma_value,
             cap_log: f32s(asset, "cap_log", &[k, order])?,
+            cap_visibility: f32s(asset, "cap_visibility", &[k, order])?,
             proxy_log_occlusion: f32s(asset, "proxy_log_occlusion", &[k, order])?,
             proxy_visibility: f32s(asset, "proxy_visibility", &[k, order])?,
             indirect_d: f32s(asset, "indirect_d", &[k, 3])?,
@@ -121,6 +142,7 @@ impl<'a> ShTables<'a> {
         &self.basis
     }
 
+    #[inline]
     fn lerp_row(table: &[f32], order: usize, k: usize, x: f32, out: &mut [f32]) {
         let t = (x.clamp(0.0, 1.0)) * (k - 1) as f32;
         let i = (t as usize).min(k - 2);
@@ -136,8 +158,16 @@ impl<'a> ShTables<'a> {
         Self::lerp_row(self.cap_log, self.order, self.k, theta / core::f32::consts::FRAC_PI_2, out);
     }
 
+    /// Starred ZH visibility of a cap of half-angle `theta` (radians, clamped to `[0, π/2]`),
+    /// linearly interpolated — the blocker visibility of product-space accumulation
+    /// (SHEXP eq. 6).
+    pub fn cap_visibility(&self, theta: f32, out: &mut [f32]) {
+        Self::lerp_row(self.cap_visibility, self.order, self.k, theta / core::f32::consts::FRAC_PI_2, out);
+    }
+
     /// Starred ZH log-occlusion of a proxy with `α = sin θ`, smoothly clamped to zero
     /// below `1/η` (IBPA §4.1).
+    #[inline]
     pub fn proxy_log_occlusion(&self, alpha: f32, out: &mut [f32]) {
         Self::lerp_row(self.proxy_log_occlusion, self.order, self.k, alpha, out);
     }
@@ -182,6 +212,23 @@ impl<'a> ShTables<'a> {
         }
     }
 
+    /// SH square `out = g * g` (truncated to this order), with the symmetric half of Γ.
+    #[inline]
+    pub fn square(&self, g: &[f32], out: &mut [f32]) {
+        let n2 = self.order * self.order;
+        out[..n2].iter_mut().for_each(|o| *o = 0.0);
+        let g = &g[..n2];
+        for &(i, j, k, v) in &self.gamma_square {
+            out[i as usize] += v * g[j as usize] * g[k as usize];
+        }
+    }
+
+    /// Largest `α` at which a blocker's (smoothly clamped) log occlusion is still zero.
+    #[inline]
+    pub fn alpha_cut(&self) -> f32 {
+        self.alpha_cut
+    }
+
     /// Product matrix `(M_f)_ij = Σ_k Γ_ijk f_k` (SHEXP eq. 5), row-major `n² × n²` into `out`.
     pub fn product_matrix(&self, f: &[f32], out: &mut [f32]) {
         let n2 = self.order * self.order;
@@ -220,7 +267,7 @@ impl<'a> ShTables<'a> {
         even[0] = sqrt_4pi;
         odd[0] = sqrt_4pi;
         let mut h2 = [0.0f32; N2_MAX];
-        self.product(&h[..n2], &h[..n2], &mut h2[..n2]);
+        self.square(&h[..n2], &mut h2[..n2]);
         let mut pow = h2;
         let mut tmp = [0.0f32; N2_MAX];
         let mut k = 1u32;
@@ -248,7 +295,7 @@ impl<'a> ShTables<'a> {
             g[i] += even[i];
         }
         for _ in 0..s {
-            self.product(&g[..n2], &g[..n2], &mut tmp[..n2]);
+            self.square(&g[..n2], &mut tmp[..n2]);
             g = tmp;
         }
         let dc = (f[0] / sqrt_4pi).exp();
@@ -278,7 +325,7 @@ impl<'a> ShTables<'a> {
             g[i] = b * scale * f[i];
         }
         for _ in 0..s {
-            self.product(&g[..n2], &g[..n2], &mut tmp[..n2]);
+            self.square(&g[..n2], &mut tmp[..n2]);
             g[..n2].copy_from_slice(&tmp[..n2]);
         }
         let dc = (f[0] / sqrt_4pi).exp();

@@ -9,6 +9,8 @@
 //!   grid, samples, the Lloyd fit ([`lloyd`]) or the octree baseline ([`octree`]), f32
 //!   rounding that keeps the set bounding, [`hierarchy`], [`skin`], and the [`metrics`].
 //! - [`asset`]: the `SPHR` asset (sections in `schemas/asset-format.md`).
+//! - [`reference`]: ray-traced shadow references (mesh truth, sphere truth) for
+//!   `penumbra verify shadows`.
 //!
 //! Units and frame: spheres are in the input's units and frame (glTF: metres, +Y up). The fit
 //! itself runs in a canonical frame ([`frame`]) so that it is scale-invariant.
@@ -23,6 +25,7 @@ pub mod metrics;
 pub mod minball;
 pub mod octree;
 pub mod powell;
+pub mod reference;
 pub mod samples;
 pub mod skin;
 pub mod sphere;

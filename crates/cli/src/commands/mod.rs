@@ -5,6 +5,7 @@ pub mod inspect;
 pub mod mrt;
 pub mod spheres;
 pub mod tables;
+pub mod verify_shadows;
 
 use crate::args::{Cli, Command};
 use crate::exit::{CliError, ExitCode};
@@ -21,6 +22,9 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Mrt(a) => mrt::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
+        Command::Verify(a) => match a.command {
+            crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
+        },
         Command::Schema => {
             print!("{}", penumbra_config::schema_json());
             Ok(ExitCode::Ok)

@@ -1,0 +1,518 @@
+//! `penumbra verify shadows`: the sphere-proxy soft-shadow runtime against ray-traced truth
+//! (issue "Soft-shadow runtime"; SHEXP §4–7, Fig. 7).
+//!
+//! Errors are NRMSE = RMSE over receivers and RGB channels / (max − min of the reference over
+//! receivers and channels), the convention of `penumbra verify fiv`:
+//! - `nrmse_vs_mesh`: runtime vs the mesh ray-traced under the environment band-limited (and
+//!   windowed) exactly as the runtime's lighting, so it measures visibility error;
+//! - `nrmse_vs_mesh_full`: the same against the full-frequency environment map;
+//! - `nrmse_vs_spheres`: runtime vs the spheres themselves ray-traced (after the same
+//!   self-shadow rules) under the band-limited light: SH / log / exponentiation error only;
+//! - `nrmse_log_vs_product`: runtime (log space) vs product-space accumulation (SHEXP eq. 6)
+//!   with the same tables, relative to the product result's range.
+
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::ensure_parent;
+use anyhow::{Context, anyhow};
+use clap::{Args, ValueEnum};
+use penumbra_asset::AssetFile;
+use penumbra_geometry::{EnvMap, MeshBvh, Scene};
+use penumbra_math::sh::ShEval;
+use penumbra_runtime::shadows::{CutBlocker, RuntimeExp, ShadowEvaluator, ShadowOptions, Sphere as RtSphere};
+use penumbra_runtime::{NodeRef, ShTables, SphereSet};
+use penumbra_spheres::reference;
+use penumbra_spheres::sphere::Sphere;
+use rayon::prelude::*;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Receivers of a verification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ReceiverKind {
+    /// A ground plane under the object (touching its lowest point), seen from above.
+    Plane,
+    /// The mesh's own vertices (self-shadowing), with area-weighted vertex normals.
+    Mesh,
+}
+
+/// Exponential of the runtime.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExpArg {
+    /// Optimal linear with scaling and squaring (SHEXP §4.3).
+    Hyb,
+    /// Optimal linear (SHEXP eq. 23).
+    Ol,
+    /// PS*-p: DC isolation, scaling/squaring, factored series of degree `--ps-degree`.
+    Ps,
+}
+
+/// Up axis of the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum UpAxis {
+    /// +Y up (glTF, most OBJ files).
+    Y,
+    /// +Z up.
+    Z,
+}
+
+/// `penumbra verify shadows`.
+#[derive(Debug, Args, Clone)]
+pub struct VerifyShadowsArgs {
+    /// Sphere set (SPHR asset).
+    #[arg(long)]
+    pub spheres: PathBuf,
+    /// SH tables (SHTB asset); their order is the runtime's.
+    #[arg(long)]
+    pub tables: PathBuf,
+    /// The mesh the spheres were fitted to (ray-traced truth).
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// Environment map (lat-long .exr or .hdr).
+    #[arg(long)]
+    pub env: PathBuf,
+    /// Receivers.
+    #[arg(long, value_enum, default_value_t = ReceiverKind::Plane)]
+    pub receivers: ReceiverKind,
+    /// SH exponential of the runtime.
+    #[arg(long, value_enum, default_value_t = ExpArg::Hyb)]
+    pub exp: ExpArg,
+    /// Series degree p of `--exp ps`.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub ps_degree: u32,
+    /// Use the sphere hierarchy: per receiver cluster a cut with ratio vectors (SHEXP §6.3).
+    #[arg(long)]
+    pub hierarchy: bool,
+    /// Angular radius threshold θ_max of the cut, degrees (SHEXP: 20–30).
+    #[arg(long, default_value_t = 25.0)]
+    pub theta_max: f64,
+    /// Receivers per cluster edge on the plane (clusters are tiles of N×N receivers); for mesh
+    /// receivers, about N² receivers per cluster.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub cluster: u32,
+    /// Plane receivers per side.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=1024))]
+    pub resolution: u32,
+    /// Most mesh receivers (vertices are subsampled evenly beyond it).
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub max_receivers: u32,
+    /// Reference rays per receiver: K×K stratified, cosine-weighted.
+    #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(2..=1024))]
+    pub rays: u32,
+    /// Do not window lighting and visibility (SHEXP §7).
+    #[arg(long)]
+    pub no_window: bool,
+    /// Up axis of the scene (the plane lies under the object along it).
+    #[arg(long, value_enum, default_value_t = UpAxis::Y)]
+    pub up: UpAxis,
+    /// Seed of the reference's stratified jitter.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write a PNG (plane receivers): runtime | mesh truth | difference, seen from above.
+    #[arg(long, value_name = "FILE")]
+    pub image: Option<PathBuf>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Everything the verification measured.
+#[derive(Debug, Clone)]
+pub struct ShadowReport {
+    /// The `--json` object.
+    pub json: Value,
+    /// Per receiver RGB: runtime, mesh truth (band-limited).
+    pub runtime: Vec<[f64; 3]>,
+    /// Mesh truth.
+    pub mesh_truth: Vec<[f64; 3]>,
+}
+
+/// NRMSE of `a` against `reference` (see the module docs).
+pub fn nrmse(a: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut se = 0.0;
+    for (x, r) in a.iter().zip(reference) {
+        for c in 0..3 {
+            lo = lo.min(r[c]);
+            hi = hi.max(r[c]);
+            se += (x[c] - r[c]).powi(2);
+        }
+    }
+    let rmse = (se / (3 * a.len().max(1)) as f64).sqrt();
+    if hi > lo { rmse / (hi - lo) } else { f64::NAN }
+}
+
+/// Projects an environment map onto RGB SH of `order`, every texel weighted by its exact
+/// solid angle.
+pub fn env_rgb_sh(env: &EnvMap, order: usize) -> Vec<[f64; 3]> {
+    let eval = ShEval::new(order);
+    let mut y = vec![0.0; order * order];
+    let mut out = vec![[0.0f64; 3]; order * order];
+    for (dir, sa, rgb) in env.iter() {
+        eval.eval_into(dir, &mut y);
+        for (o, yi) in out.iter_mut().zip(&y) {
+            for c in 0..3 {
+                o[c] += rgb[c] as f64 * sa * yi;
+            }
+        }
+    }
+    out
+}
+
+fn open_asset(path: &Path) -> Result<AssetFile, CliError> {
+    AssetFile::open(path).map_err(|e| CliError::input(anyhow!("{e}")))
+}
+
+/// The receivers: `(position, unit normal)`, plus the plane layout when on a plane.
+/// A receiver: position and unit normal.
+type Receiver = ([f64; 3], [f64; 3]);
+/// An estimate and its standard error (RGB).
+type Estimate = ([f64; 3], [f64; 3]);
+
+fn receivers(scene: &Scene, a: &VerifyShadowsArgs) -> Result<Vec<Receiver>, CliError> {
+    let mesh = &scene.mesh;
+    let b = mesh.bounds().ok_or_else(|| CliError::input(anyhow!("{}: the mesh is empty", a.mesh.display())))?;
+    let up = match a.up {
+        UpAxis::Y => 1,
+        UpAxis::Z => 2,
+    };
+    match a.receivers {
+        ReceiverKind::Plane => {
+            let c = b.center();
+            let r = 0.5 * b.diagonal();
+            let res = a.resolution as usize;
+            let (u, v) = ((up + 1) % 3, (up + 2) % 3);
+            let mut out = Vec::with_capacity(res * res);
+            let mut n = [0.0; 3];
+            n[up] = 1.0;
+            for j in 0..res {
+                for i in 0..res {
+                    let mut p = [0.0; 3];
+                    p[up] = b.min[up];
+                    // row 0 of the image is the far side: i along u, j along v
+                    p[u] = c[u] - 2.0 * r + 4.0 * r * (i as f64 + 0.5) / res as f64;
+                    p[v] = c[v] - 2.0 * r + 4.0 * r * (j as f64 + 0.5) / res as f64;
+                    out.push((p, n));
+                }
+            }
+            Ok(out)
+        }
+        ReceiverKind::Mesh => {
+            let nv = mesh.positions.len();
+            let mut normals = vec![[0.0f64; 3]; nv];
+            for t in 0..mesh.triangle_count() {
+                let cr = mesh.triangle_cross(t);
+                for &vi in &mesh.indices[t] {
+                    for k in 0..3 {
+                        normals[vi as usize][k] += cr[k];
+                    }
+                }
+            }
+            let used: Vec<usize> = (0..nv).filter(|&i| normals[i].iter().map(|x| x * x).sum::<f64>() > 0.0).collect();
+            let stride = used.len().div_ceil(a.max_receivers as usize).max(1);
+            Ok(used
+                .iter()
+                .step_by(stride)
+                .map(|&i| {
+                    let l = normals[i].iter().map(|x| x * x).sum::<f64>().sqrt();
+                    (mesh.positions[i], normals[i].map(|x| x / l))
+                })
+                .collect())
+        }
+    }
+}
+
+/// Receiver clusters: index lists (plane: tiles; mesh: uniform grid buckets).
+fn clusters(recv: &[Receiver], a: &VerifyShadowsArgs) -> Vec<Vec<usize>> {
+    let cs = a.cluster as usize;
+    match a.receivers {
+        ReceiverKind::Plane => {
+            let res = a.resolution as usize;
+            let tiles = res.div_ceil(cs);
+            let mut out = vec![Vec::new(); tiles * tiles];
+            for j in 0..res {
+                for i in 0..res {
+                    out[(j / cs) * tiles + i / cs].push(j * res + i);
+                }
+            }
+            out
+        }
+        ReceiverKind::Mesh => {
+            let target = (recv.len() / (cs * cs)).max(1);
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for (p, _) in recv {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+            let vol: f64 = (0..3).map(|k| (hi[k] - lo[k]).max(1e-12)).product();
+            let h = (vol / target as f64).cbrt();
+            let dims: [usize; 3] = std::array::from_fn(|k| (((hi[k] - lo[k]) / h).ceil() as usize).max(1));
+            let mut map = std::collections::BTreeMap::<usize, Vec<usize>>::new();
+            for (i, (p, _)) in recv.iter().enumerate() {
+                let c: [usize; 3] = std::array::from_fn(|k| (((p[k] - lo[k]) / h) as usize).min(dims[k] - 1));
+                map.entry(c[0] + dims[0] * (c[1] + dims[1] * c[2])).or_default().push(i);
+            }
+            map.into_values().collect()
+        }
+    }
+}
+
+fn to32(v: [f64; 3]) -> [f32; 3] {
+    v.map(|x| x as f32)
+}
+
+/// Runs the verification (no output files).
+#[allow(clippy::too_many_lines)]
+pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
+    let tables_file = open_asset(&a.tables)?;
+    let tables_asset = tables_file.asset();
+    let tables =
+        ShTables::from_asset(&tables_asset).map_err(|e| CliError::input(anyhow!("{}: {e}", a.tables.display())))?;
+    let sphere_file = open_asset(&a.spheres)?;
+    let sphere_asset = sphere_file.asset();
+    let set =
+        SphereSet::from_asset(&sphere_asset).map_err(|e| CliError::input(anyhow!("{}: {e}", a.spheres.display())))?;
+    if set.is_empty() {
+        return Err(CliError::input(anyhow!("{}: the sphere set is empty", a.spheres.display())));
+    }
+    if a.hierarchy && set.depth() == 0 {
+        return Err(CliError::input(anyhow!(
+            "{}: --hierarchy: the asset has no hierarchy (bake it with `penumbra spheres --hierarchy`)",
+            a.spheres.display()
+        )));
+    }
+    if !(a.theta_max > 0.0 && a.theta_max < 90.0) {
+        return Err(CliError::input(anyhow!(
+            "--theta-max {} is out of range (allowed: 0 < θ < 90 degrees)",
+            a.theta_max
+        )));
+    }
+    let (scene, _) = penumbra_geometry::load_mesh(&a.mesh).map_err(CliError::input)?;
+    let (env, _) = penumbra_geometry::load_env_map(&a.env)
+        .with_context(|| format!("cannot load environment map {}", a.env.display()))?;
+    let order = tables.order();
+    let exp = match a.exp {
+        ExpArg::Hyb => RuntimeExp::Hyb,
+        ExpArg::Ol => RuntimeExp::Ol,
+        ExpArg::Ps => RuntimeExp::PsStar(a.ps_degree),
+    };
+    let window = !a.no_window;
+    let light = env_rgb_sh(&env, order);
+    let light32: Vec<[f32; 3]> = light.iter().map(|&c| to32(c)).collect();
+    let options = ShadowOptions { exp, window, ..Default::default() };
+    let ev = ShadowEvaluator::new(&tables, &light32, options);
+    // the band-limited light the runtime shades with (windowed like the runtime's)
+    let win: Vec<f64> =
+        if window { tables.cosine_window().iter().map(|&w| w as f64).collect() } else { vec![1.0; order] };
+    let light_bl: Vec<[f64; 3]> = light
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let w = win[penumbra_math::sh::band_of(i)];
+            c.map(|x| x * w)
+        })
+        .collect();
+    let recv = receivers(&scene, a)?;
+    let n_recv = recv.len();
+    let leaves: Vec<RtSphere> = (0..set.len()).map(|i| set.leaf(i)).collect();
+
+    // runtime, timed on one thread
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().map_err(CliError::internal)?;
+    let clusters = clusters(&recv, a);
+    let (runtime, ns_per_receiver, blockers_per_receiver) = pool.install(|| {
+        let start = Instant::now();
+        let mut out = vec![[0.0f64; 3]; n_recv];
+        let mut total_blockers = 0usize;
+        if a.hierarchy {
+            let sin_max = (a.theta_max.to_radians().sin()) as f32;
+            let mut stack: Vec<NodeRef> = Vec::new();
+            let mut cut: Vec<NodeRef> = Vec::new();
+            let mut blockers: Vec<CutBlocker> = Vec::new();
+            for cl in &clusters {
+                let mut g = [0.0f64; 3];
+                for &i in cl {
+                    for k in 0..3 {
+                        g[k] += recv[i].0[k] / cl.len() as f64;
+                    }
+                }
+                let star = *cl
+                    .iter()
+                    .min_by(|&&x, &&y| {
+                        penumbra_spheres::sphere::dist2(recv[x].0, g)
+                            .total_cmp(&penumbra_spheres::sphere::dist2(recv[y].0, g))
+                    })
+                    .unwrap_or(&cl[0]);
+                let r_r = cl.iter().map(|&i| penumbra_spheres::sphere::dist(recv[i].0, g)).fold(0.0, f64::max);
+                set.cut(to32(g), r_r as f32, sin_max, &mut stack, &mut cut);
+                ev.cluster_blockers(&set, &cut, to32(recv[star].0), to32(recv[star].1), &mut blockers);
+                total_blockers += blockers.len() * cl.len();
+                for &i in cl {
+                    out[i] = ev.irradiance_blockers(to32(recv[i].0), to32(recv[i].1), &blockers).map(f64::from);
+                }
+            }
+        } else {
+            for (i, (p, n)) in recv.iter().enumerate() {
+                out[i] = ev.irradiance(to32(*p), to32(*n), &leaves).map(f64::from);
+            }
+            total_blockers = leaves.len() * n_recv;
+        }
+        let ns = start.elapsed().as_nanos() as f64 / n_recv as f64;
+        (out, ns, total_blockers as f64 / n_recv as f64)
+    });
+    // product-space accumulation (all leaves)
+    let product: Vec<[f64; 3]> =
+        recv.par_iter().map(|(p, n)| ev.irradiance_product(to32(*p), to32(*n), &leaves).map(f64::from)).collect();
+
+    // references
+    let bvh = MeshBvh::build(&scene.mesh).map_err(|e| CliError::input(anyhow!("{}: {e}", a.mesh.display())))?;
+    let scale = scene.mesh.bounds().map_or(1.0, |b| b.diagonal());
+    let lift = 1e-6 * scale;
+    let k = a.rays as usize;
+    let eval = ShEval::new(order);
+    let spheres64: Vec<Sphere> = leaves.iter().map(|s| Sphere::new(s.center.map(f64::from), s.radius as f64)).collect();
+    let blocked_mesh = reference::mesh_blocked(&bvh, lift);
+    type Trio = (Estimate, Estimate, Estimate);
+    let truths: Vec<Trio> = recv
+        .par_iter()
+        .enumerate()
+        .map(|(i, (p, n))| {
+            let o: [f64; 3] = std::array::from_fn(|c| p[c] + lift * n[c]);
+            let y = std::cell::RefCell::new(vec![0.0; order * order]);
+            let bl = |d: [f64; 3]| reference::sh_radiance(&eval, &light_bl, d, &mut y.borrow_mut());
+            let full = |d: [f64; 3]| env.sample(d).map(f64::from);
+            let mesh_bl = reference::irradiance(o, *n, k, a.seed, i as u64, &bl, &blocked_mesh);
+            let mesh_full = reference::irradiance(o, *n, k, a.seed, i as u64, &full, &blocked_mesh);
+            let eff: Vec<Sphere> = spheres64.iter().filter_map(|s| reference::replace(s, *p, *n)).collect();
+            let sph =
+                reference::irradiance(o, *n, k, a.seed, i as u64, &bl, &|oo, d| reference::spheres_hit(&eff, oo, d));
+            (mesh_bl, mesh_full, sph)
+        })
+        .collect();
+    let mesh_truth: Vec<[f64; 3]> = truths.iter().map(|t| t.0.0).collect();
+    let mesh_full: Vec<[f64; 3]> = truths.iter().map(|t| t.1.0).collect();
+    let sphere_truth: Vec<[f64; 3]> = truths.iter().map(|t| t.2.0).collect();
+    // RMS of the references' standard errors over their range (an upper bound of their noise)
+    let noise = |sel: &dyn Fn(&Trio) -> Estimate, reference: &[[f64; 3]]| -> f64 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for r in reference {
+            for c in 0..3 {
+                lo = lo.min(r[c]);
+                hi = hi.max(r[c]);
+            }
+        }
+        let ms = truths.iter().map(|t| sel(t).1.iter().map(|x| x * x).sum::<f64>()).sum::<f64>() / (3 * n_recv) as f64;
+        if hi > lo { ms.sqrt() / (hi - lo) } else { f64::NAN }
+    };
+    let unshadowed_mean =
+        recv.iter().map(|(_, n)| ev.unshadowed(to32(*n)).iter().map(|&x| x as f64).sum::<f64>() / 3.0).sum::<f64>()
+            / n_recv as f64;
+    let max_abs =
+        runtime.iter().zip(&mesh_truth).flat_map(|(x, r)| (0..3).map(move |c| (x[c] - r[c]).abs())).fold(0.0, f64::max);
+    let json = json!({
+        "nrmse_vs_mesh": nrmse(&runtime, &mesh_truth),
+        "nrmse_vs_mesh_full": nrmse(&runtime, &mesh_full),
+        "nrmse_vs_spheres": nrmse(&runtime, &sphere_truth),
+        "nrmse_log_vs_product": nrmse(&runtime, &product),
+        "nrmse_product_vs_spheres": nrmse(&product, &sphere_truth),
+        "nrmse_spheres_vs_mesh": nrmse(&sphere_truth, &mesh_truth),
+        "reference_noise_nrmse": {
+            "mesh": noise(&|t: &Trio| t.0, &mesh_truth),
+            "mesh_full": noise(&|t: &Trio| t.1, &mesh_full),
+            "spheres": noise(&|t: &Trio| t.2, &sphere_truth),
+        },
+        "max_abs_error_vs_mesh": max_abs,
+        "unshadowed_irradiance_mean": unshadowed_mean,
+        "receivers": n_recv,
+        "receiver_kind": match a.receivers { ReceiverKind::Plane => "plane", ReceiverKind::Mesh => "mesh" },
+        "reference_rays_per_receiver": k * k,
+        "ns_per_receiver": ns_per_receiver,
+        "blockers_per_receiver": blockers_per_receiver,
+        "hierarchy": a.hierarchy,
+        "theta_max_deg": a.hierarchy.then_some(a.theta_max),
+        "clusters": a.hierarchy.then_some(clusters.len()),
+        "exp_method": match a.exp { ExpArg::Hyb => "hyb".to_string(), ExpArg::Ol => "ol".to_string(), ExpArg::Ps => format!("ps*-{}", a.ps_degree) },
+        "window": window,
+        "order": order,
+        "sphere_count": set.len(),
+        "nrmse_definition": "RMSE over receivers and RGB / (max - min of the reference over receivers and RGB)",
+    });
+    Ok(ShadowReport { json, runtime, mesh_truth })
+}
+
+/// Runtime | mesh truth | difference (false colour, ±10 % of the truth's range) for plane
+/// receivers, top view.
+pub fn write_image(path: &Path, res: usize, runtime: &[[f64; 3]], truth: &[[f64; 3]]) -> Result<(), CliError> {
+    let lum = |c: &[f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    let max = truth.iter().map(lum).fold(f64::MIN_POSITIVE, f64::max);
+    let min = truth.iter().map(lum).fold(f64::INFINITY, f64::min);
+    let range = (max - min).max(f64::MIN_POSITIVE);
+    let w = 3 * res + 2 * 4;
+    let mut rgb = vec![255u8; w * res * 3];
+    let tone = |v: f64| ((v / max).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+    for j in 0..res {
+        for i in 0..res {
+            let k = j * res + i;
+            let row = res - 1 - j; // far side up
+            let put = |rgb: &mut Vec<u8>, x: usize, c: [u8; 3]| {
+                let o = (row * w + x) * 3;
+                rgb[o..o + 3].copy_from_slice(&c);
+            };
+            let a = tone(lum(&runtime[k]));
+            let b = tone(lum(&truth[k]));
+            put(&mut rgb, i, [a, a, a]);
+            put(&mut rgb, res + 4 + i, [b, b, b]);
+            let d = ((lum(&runtime[k]) - lum(&truth[k])) / range / 0.1).clamp(-1.0, 1.0);
+            let c = if d >= 0.0 {
+                [255, (255.0 * (1.0 - d)) as u8, (255.0 * (1.0 - d)) as u8]
+            } else {
+                [(255.0 * (1.0 + d)) as u8, (255.0 * (1.0 + d)) as u8, 255]
+            };
+            put(&mut rgb, 2 * (res + 4) + i, c);
+        }
+    }
+    ensure_parent(path)?;
+    let png = crate::png::encode_rgb8(w as u32, res as u32, &rgb);
+    penumbra_asset::write_file_atomic(path, &png).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// Runs `penumbra verify shadows`.
+#[allow(clippy::print_stderr)]
+pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let r = evaluate(a)?;
+    if let Some(img) = &a.image {
+        if a.receivers != ReceiverKind::Plane {
+            return Err(CliError::input(anyhow!("--image needs --receivers plane")));
+        }
+        write_image(img, a.resolution as usize, &r.runtime, &r.mesh_truth)?;
+    }
+    let mut v = r.json;
+    if let Some(o) = v.as_object_mut() {
+        o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
+        o.insert("image".into(), json!(a.image.as_ref().map(|p| p.display().to_string())));
+    }
+    if a.json {
+        print_json(&v);
+    } else {
+        let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+        eprintln!(
+            "{} receivers, {} spheres, order {}, {}{}\n  NRMSE vs mesh {:.4} (full-frequency env {:.4})  vs spheres {:.4}  log vs product {:.4}\n  runtime {:.0} ns per receiver ({:.1} blockers)",
+            v["receivers"],
+            v["sphere_count"],
+            v["order"],
+            v["exp_method"].as_str().unwrap_or(""),
+            if a.hierarchy { " with hierarchy" } else { "" },
+            f("nrmse_vs_mesh"),
+            f("nrmse_vs_mesh_full"),
+            f("nrmse_vs_spheres"),
+            f("nrmse_log_vs_product"),
+            f("ns_per_receiver"),
+            f("blockers_per_receiver"),
+        );
+    }
+    Ok(ExitCode::Ok)
+}
