@@ -35,9 +35,12 @@
 //! - [`bvh`]: [`MeshBvh`] (obvhs CWBVH + exact watertight f64 tests): closest hit, any hit,
 //!   closest point; brute-force references.
 //! - [`inside`]: generalized winding number, exact and fast ([`WindingNumber`]).
-//! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`].
+//! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`], procedural area-light maps.
+//! - [`ball`]: minimum enclosing ball ([`min_enclosing_ball`]).
+//! - [`shapes`]: procedural closed meshes (UV sphere, torus).
 
 mod aabb_tree;
+pub mod ball;
 pub mod bvh;
 #[cfg(test)]
 mod bvh_tests;
@@ -48,9 +51,11 @@ pub mod inside;
 mod kernels;
 pub mod mesh;
 pub mod scene;
+pub mod shapes;
 #[cfg(test)]
 mod testutil;
 
+pub use ball::{Ball, min_enclosing_ball};
 pub use bvh::{ClosestPoint, Hit, MeshBvh, Ray};
 pub use env::{CubeFace, CubeMap, EnvMap, EnvReport, load_env_map};
 pub use error::{EnvError, EnvErrorKind, EnvMapError, MeshError, MeshErrorKind, MeshValidationError};

@@ -37,6 +37,7 @@
 mod cube;
 mod latlong;
 mod load;
+pub mod procedural;
 
 pub use cube::{
     CubeFace, CubeMap, DEFAULT_FACE_SIZE, DEFAULT_GAUSS_POINTS, face_rect_solid_angle,
