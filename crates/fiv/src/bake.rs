@@ -159,6 +159,22 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Whether building the silhouette bitmaps pays off for `rows` (azimuth, polar) rows of the
+/// layout (always the whole bake's rows, so every shard decides alike and the ray counters
+/// of shards add up to the single run's): the rays the bounding cones let through (estimated from the cone's solid angle)
+/// against the stamping work (one disc per cluster and bitmap, costed at a fifth of a
+/// missing ray). Only the speed depends on this choice, never the result.
+fn worth_culling(occ: &Occluder, lighting: &Lighting, l: &ShellLayout, rows: usize) -> bool {
+    let mut cone_rays = 0.0;
+    for k in 0..l.radial {
+        let r = l.rho_over_r(k);
+        let frac = if r <= 1.0 { 1.0 } else { 0.5 * (1.0 - (1.0 - 1.0 / (r * r)).sqrt()) };
+        cone_rays += frac * (rows * lighting.texel_count()) as f64;
+    }
+    let stamps = (lighting.texel_count() / 2) as f64 * (occ.mesh().indices.len() as f64 / 16.0).ceil();
+    cone_rays > 0.67 * stamps
+}
+
 /// Traces the occluded-environment FIV of sample positions around one occluder.
 #[derive(Debug)]
 pub struct FivTracer<'a> {
@@ -250,7 +266,7 @@ pub fn bake(
     let frame = occ.frame;
     let mut fiv = vec![0.0f32; rows * k * 9];
     let mut inside = vec![0u8; rows * k];
-    let tracer = FivTracer::new(occ, lighting, true);
+    let tracer = FivTracer::new(occ, lighting, worth_culling(occ, lighting, &l, l.azimuth * l.polar));
     let done = AtomicU64::new(0);
     let (rays, hits, ins) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
     progress.update("fiv", 0, rows as u64);

@@ -5,8 +5,12 @@
 //!   exponentials HYB/OL/PS*-p).
 //! - [`shadows`]: soft shadows from sphere proxies at a receiver (log accumulation,
 //!   self-shadow replacement rules, exponentiation, windowed diffuse shading).
+//! - [`fiv`]: soft shadows from FIV occlusion tables (`FIVT`): irradiance cube lookup,
+//!   trilinear FIV lookup with inside flags, partial occluders, overlap correction,
+//!   self-shadowing (FIV §4.3).
 
 mod error;
+pub mod fiv;
 pub mod sh;
 pub mod shadows;
 mod tables;

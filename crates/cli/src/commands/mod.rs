@@ -1,8 +1,10 @@
 //! Command implementations.
 
 pub mod bake;
+pub mod fiv;
 pub mod inspect;
 pub mod tables;
+pub mod verify_fiv;
 
 use crate::args::{Cli, Command};
 use crate::exit::{CliError, ExitCode};
@@ -17,6 +19,10 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Tables(a) => tables::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
+        Command::Fiv(a) => fiv::run(&a, cli.progress),
+        Command::Verify(a) => match a.command {
+            crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
+        },
         Command::Schema => {
             print!("{}", penumbra_config::schema_json());
             Ok(ExitCode::Ok)
