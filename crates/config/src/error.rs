@@ -114,7 +114,15 @@ fn locate(source: &str, key: &str) -> Option<usize> {
     let mut item: &toml_edit::Item = doc.as_item();
     let mut best = None;
     for part in key.split('.') {
-        match item.get(part) {
+        // `name[i]`: the i-th table of an array of tables
+        let next = match part.split_once('[') {
+            Some((name, rest)) => {
+                let idx: Option<usize> = rest.strip_suffix(']').and_then(|i| i.parse().ok());
+                item.get(name).and_then(|a| idx.and_then(|i| a.get(i)))
+            }
+            None => item.get(part),
+        };
+        match next {
             Some(next) => {
                 item = next;
                 if let Some(sp) = item.span() {

@@ -19,12 +19,26 @@ pub struct Placed<'a> {
     pub bvh: &'a MeshBvh,
     /// Translation applied to the mesh.
     pub offset: [f64; 3],
+    /// A ball `(centre, radius)` holding the mesh (its own coordinates), if known: rays
+    /// missing it are not traced (the answer is the same, only faster).
+    pub ball: Option<([f64; 3], f64)>,
 }
 
 impl Placed<'_> {
-    /// Whether the ray from `p` along `d` (`s ≥ tmin`) hits the placed mesh.
+    /// Whether the ray from `p` along the unit direction `d` (`s ≥ tmin`) hits the placed
+    /// mesh.
     pub fn hits(&self, p: [f64; 3], d: [f64; 3], tmin: f64) -> bool {
         let o = [p[0] - self.offset[0], p[1] - self.offset[1], p[2] - self.offset[2]];
+        if let Some((c, r)) = self.ball {
+            let v = [c[0] - o[0], c[1] - o[1], c[2] - o[2]];
+            let t = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
+            let vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            let r2 = (r * (1.0 + 1e-9)).powi(2);
+            // the ball is behind the origin, or the line passes outside it
+            if (t < 0.0 && vv > r2) || vv - t * t > r2 {
+                return false;
+            }
+        }
         self.bvh.any_hit(&Ray::new(o, d).with_range(tmin, f64::INFINITY))
     }
 }

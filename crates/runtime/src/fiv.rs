@@ -516,8 +516,10 @@ impl FivShader {
         let t = own.table;
         let base = match t.occluded_fiv(sub(p, own.center)) {
             Some(f) => {
+                // FI of the unoccluded part, bounded by what no occlusion at all would give
                 let e = t.env_fiv();
-                [0, 1, 2].map(|c| dot(sub(e[c], f[c]), n).max(0.0))
+                let tot = t.total_irradiance(n);
+                [0, 1, 2].map(|c| dot(sub(e[c], f[c]), n).clamp(0.0, tot[c]))
             }
             None => t.total_irradiance(n),
         };

@@ -12,8 +12,9 @@ use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Stage names in execution order; a stage's index is its work-item index for `--shard`.
-pub const STAGES: &[&str] = &["tables"];
+/// Stage names in execution order. The work items of `--shard` are the configured stages in
+/// this order, with one item per `[[fiv]]` entry.
+pub const STAGES: &[&str] = &["tables", "fiv"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -90,6 +91,83 @@ fn run_tables(
     })
 }
 
+fn run_fiv(
+    cfg: &penumbra_config::LoadedConfig,
+    index: usize,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    let Some(f) = cfg.config.fiv.get(index) else {
+        return Err(CliError::internal(anyhow!("fiv stage {index} selected but not configured")));
+    };
+    let name = format!("fiv[{index}]");
+    let mut specs = Vec::new();
+    for (key, spec) in [("mesh", &f.mesh), ("env", &f.env)] {
+        let resolved = super::fiv::resolve_spec(spec, |p| cfg.resolve(p));
+        if !resolved.starts_with("builtin:") && !Path::new(&resolved).is_file() {
+            return Err(CliError::input(anyhow!(
+                "{}: `{name}.{key}`: file {resolved} does not exist",
+                cfg.path.display()
+            )));
+        }
+        specs.push(resolved);
+    }
+    let up = match f.up {
+        Some(penumbra_config::UpAxis::Z) => penumbra_fiv::UpAxis::Z,
+        _ => penumbra_fiv::UpAxis::Y,
+    };
+    use penumbra_geometry::env::Rotation;
+    let rot = match f.env_rotate {
+        Some(penumbra_config::EnvRotate::X180) => Rotation::X180,
+        Some(penumbra_config::EnvRotate::Y180) => Rotation::Y180,
+        Some(penumbra_config::EnvRotate::Z180) => Rotation::Z180,
+        _ => Rotation::None,
+    };
+    let job = super::fiv::FivJob::new(
+        &specs[0],
+        &specs[1],
+        rot,
+        f.samples.unwrap_or([32, 17, 15]).map(|v| v as usize),
+        f.r_min.unwrap_or(1.0),
+        f.r_max.unwrap_or(8.0),
+        up,
+        f.cube_size.unwrap_or(32) as usize,
+        f.irradiance_size.unwrap_or(32) as usize,
+        f.half.unwrap_or(false),
+    )?;
+    let output = out_dir.join(f.output_name());
+    let key = super::fiv::cache_key(&job)?;
+    let start = Instant::now();
+    if !force {
+        if let Some((existing, metrics)) = existing_cache_key(&output) {
+            if existing == key {
+                return Ok(StageReport {
+                    value: json!({
+                        "name": name, "kind": "FIVT", "status": "up-to-date",
+                        "output": output.display().to_string(), "cache_key": key,
+                        "bytes": std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0),
+                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
+                    }),
+                });
+            }
+        }
+    }
+    let o = super::fiv::bake_to(&job, penumbra_fiv::Shard::WHOLE, &output, mode)?;
+    let r = &o.report;
+    Ok(StageReport {
+        value: json!({
+            "name": name, "kind": "FIVT", "status": "baked",
+            "output": output.display().to_string(), "cache_key": key,
+            "bytes": r["bytes"], "seconds": o.seconds,
+            "metrics": {
+                "samples": r["samples"], "rays_traced": r["rays_traced"], "rays_hit": r["rays_hit"],
+                "inside_samples": r["inside_samples"], "fiv_bytes": r["fiv_bytes"],
+            },
+        }),
+    })
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
@@ -100,7 +178,16 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         .copied()
         .filter(|s| match *s {
             "tables" => cfg.config.tables.is_some(),
+            "fiv" => !cfg.config.fiv.is_empty(),
             _ => false,
+        })
+        .collect();
+    // work items: one per stage, one per [[fiv]] entry
+    let items: Vec<(&str, usize)> = configured
+        .iter()
+        .flat_map(|&s| {
+            let n = if s == "fiv" { cfg.config.fiv.len() } else { 1 };
+            (0..n).map(move |i| (s, i))
         })
         .collect();
     if let Some(only) = &a.only {
@@ -117,9 +204,10 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
 
     let mut stages = Vec::new();
-    for (item, name) in configured.iter().enumerate() {
-        let skip = |status: &str| json!({"name": name, "status": status});
-        if a.only.as_deref().is_some_and(|o| o != *name) {
+    for (item, &(name, index)) in items.iter().enumerate() {
+        let label = if name == "fiv" { format!("fiv[{index}]") } else { name.to_string() };
+        let skip = |status: &str| json!({"name": label, "status": status});
+        if a.only.as_deref().is_some_and(|o| o != name) {
             stages.push(skip("skipped-by-only"));
             continue;
         }
@@ -129,14 +217,15 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 continue;
             }
         }
-        let r = match *name {
+        let r = match name {
             "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
+            "fiv" => run_fiv(&cfg, index, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {
             eprintln!(
                 "{:<8} {:<10} {} ({:.2} s)",
-                name,
+                label,
                 r.value["status"].as_str().unwrap_or(""),
                 r.value["output"].as_str().unwrap_or(""),
                 r.value["seconds"].as_f64().unwrap_or(0.0)

@@ -27,7 +27,7 @@ pub struct Input<T> {
     pub data: T,
     /// File name (no directories) or builtin name.
     pub name: String,
-    /// blake3 of the file bytes, or of the builtin's definition.
+    /// blake3 of the file bytes, or of the builtin's name and the tool version.
     pub blake3: String,
 }
 
@@ -151,8 +151,14 @@ impl FivJob {
     }
 }
 
-/// Normalised parameters and input hashes, hashed for the cache key.
-pub fn cache_key(job: &FivJob, mesh: &Input<TriMesh>, env: &Input<CubeMap>) -> String {
+/// Content hash of a mesh or environment spec: the file's blake3, or the builtin's.
+pub fn spec_hash(spec: &str) -> Result<String, CliError> {
+    if spec.starts_with("builtin:") { Ok(builtin_hash(spec)) } else { Ok(hash_file(Path::new(spec))?) }
+}
+
+/// Normalised parameters and input hashes, hashed for the cache key (reads the input files
+/// to hash them, but does not parse them).
+pub fn cache_key(job: &FivJob) -> Result<String, CliError> {
     let l = job.params.layout;
     let v = json!({
         "tool": env!("CARGO_PKG_VERSION"),
@@ -164,11 +170,11 @@ pub fn cache_key(job: &FivJob, mesh: &Input<TriMesh>, env: &Input<CubeMap>) -> S
         "cube_size": job.cube_size,
         "irradiance_size": job.params.irradiance_size,
         "storage": job.storage,
-        "mesh": mesh.blake3,
-        "env": env.blake3,
+        "mesh": spec_hash(&job.mesh)?,
+        "env": spec_hash(&job.env)?,
         "env_rotate": job.env_rotate.name(),
     });
-    blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
+    Ok(blake3::hash(v.to_string().as_bytes()).to_hex().to_string())
 }
 
 /// What a FIV bake produced.
@@ -180,24 +186,12 @@ pub struct FivOutcome {
     pub seconds: f64,
 }
 
-/// Loads the inputs and computes the cache key (for `penumbra bake`'s up-to-date check).
-pub fn prepare(job: &FivJob) -> Result<(Input<TriMesh>, Input<CubeMap>, String), CliError> {
+/// Bakes (one shard of) a job and writes the asset atomically.
+pub fn bake_to(job: &FivJob, shard: Shard, output: &Path, mode: ProgressMode) -> Result<FivOutcome, CliError> {
+    let start = Instant::now();
+    let key = cache_key(job)?;
     let mesh = load_occluder(&job.mesh)?;
     let env = load_env(&job.env, job.env_rotate, job.cube_size)?;
-    let key = cache_key(job, &mesh, &env);
-    Ok((mesh, env, key))
-}
-
-/// Bakes (one shard of) a job and writes the asset atomically.
-pub fn bake_to(
-    job: &FivJob,
-    inputs: (Input<TriMesh>, Input<CubeMap>, String),
-    shard: Shard,
-    output: &Path,
-    mode: ProgressMode,
-) -> Result<FivOutcome, CliError> {
-    let start = Instant::now();
-    let (mesh, env, key) = inputs;
     let occ =
         Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", job.mesh)))?;
     let lighting = Lighting::new(env.data);
@@ -274,8 +268,7 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         }
         None => Shard::WHOLE,
     };
-    let inputs = prepare(&job)?;
-    let out = bake_to(&job, inputs, shard, output, mode)?;
+    let out = bake_to(&job, shard, output, mode)?;
     let mut v = out.report;
     v["seconds"] = json!(out.seconds);
     if a.json {

@@ -315,7 +315,11 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
     let bvhs: Vec<MeshBvh> =
         meshes.iter().map(|m| MeshBvh::build(m).map_err(CliError::internal)).collect::<Result<_, _>>()?;
     let windings: Vec<WindingNumber> = meshes.iter().map(WindingNumber::new).collect();
-    let refs: Vec<Placed<'_>> = placed.iter().map(|&(f, off)| Placed { bvh: &bvhs[f], offset: off }).collect();
+    let balls: Vec<_> = meshes.iter().map(|m| penumbra_geometry::min_enclosing_ball(&m.positions)).collect();
+    let refs: Vec<Placed<'_>> = placed
+        .iter()
+        .map(|&(f, off)| Placed { bvh: &bvhs[f], offset: off, ball: balls[f].map(|b| (b.center, b.radius)) })
+        .collect();
     let centers: Vec<[f64; 3]> =
         placed.iter().map(|&(f, off)| [0, 1, 2].map(|k| metas[f].frame.center[k] + off[k])).collect();
 
@@ -424,6 +428,12 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
         }
     }
 
+    // the unshadowed baseline: irradiance cube alone (no occluder at all)
+    let base: Vec<[f64; 3]> =
+        recv.normals.iter().map(|n| tables[0].total_irradiance(n.map(|v| v as f32)).map(|v| v as f64)).collect();
+    let (e_base, _, _) = metrics(&base, &rf, |r| !inside[r]);
+    let (e_base_vis, _, _) = metrics(&base, &rf, |r| !inside[r] && !covered[r]);
+
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for r in (0..count).filter(|&r| !inside[r]) {
         for c in 0..3 {
@@ -447,6 +457,8 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
         "overlap_correction": opts.overlap,
         "occluders": occs.len(),
         "reference_range": [lo, hi],
+        "nrmse_unshadowed": e_base,
+        "nrmse_visible_unshadowed": e_base_vis,
         "variants": variants,
         "reference_seconds": reference_seconds,
         "seconds": start.elapsed().as_secs_f64(),
