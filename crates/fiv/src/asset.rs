@@ -65,8 +65,10 @@ impl MetaParams {
 pub struct Metrics {
     /// Rays cast.
     pub rays_traced: u64,
-    /// Rays that hit the occluder.
+    /// Texels found occluded (traced hits and certified hits).
     pub rays_hit: u64,
+    /// Hits certified without a ray ([`crate::interior`]).
+    pub rays_certified: u64,
     /// Samples flagged inside the occluder.
     pub inside_samples: u64,
     /// Bytes of the `fiv` section of the whole bake (A·P·K·9·element size).
@@ -181,6 +183,7 @@ pub fn meta_of(b: &FivBake, inp: &AssetInputs<'_>) -> FivMeta {
         metrics: Metrics {
             rays_traced: b.stats.rays_traced,
             rays_hit: b.stats.rays_hit,
+            rays_certified: b.stats.rays_certified,
             inside_samples: b.stats.inside_samples,
             fiv_bytes: (l.samples() * 9 * elem) as u64,
             env_power: power,
@@ -288,12 +291,14 @@ pub fn merge(shards: &[Asset<'_>]) -> Result<AssetBuilder, FivError> {
     for (_, m) in &metas {
         stats.rays_traced += m.metrics.rays_traced;
         stats.rays_hit += m.metrics.rays_hit;
+        stats.rays_certified += m.metrics.rays_certified;
         stats.inside_samples += m.metrics.inside_samples;
     }
     let mut meta = first.clone();
     meta.shard = None;
     meta.metrics.rays_traced = stats.rays_traced;
     meta.metrics.rays_hit = stats.rays_hit;
+    meta.metrics.rays_certified = stats.rays_certified;
     meta.metrics.inside_samples = stats.inside_samples;
 
     let a_total = first.params.samples[0];

@@ -12,7 +12,10 @@
 //! traced only when its direction is within `α` of the axis (with a 1e-9 margin, so the
 //! skipping is exact: a skipped ray cannot touch the ball). Samples on or inside the ball
 //! trace every texel. Ray casting is exact ([`MeshBvh::any_hit`]: watertight f64 triangle
-//! test, first hit ends the ray).
+//! test, first hit ends the ray). Before a ray is cast, the per-texel silhouette bitmaps of
+//! [`crate::silhouette`] skip rays whose line certainly misses the mesh and accept, without
+//! a ray, rays that certainly hit it ([`crate::interior`]); both are proofs, so the mask —
+//! and every bit of the result — is the one that tracing every ray gives.
 //!
 //! # Inside flags
 //! A sample on or inside the ball (`ρ ≤ R`) is flagged inside when the generalized winding
@@ -28,7 +31,7 @@
 use crate::error::FivError;
 use crate::layout::{Frame, Shard, ShellLayout};
 use crate::lighting::Lighting;
-use crate::silhouette::Silhouettes;
+use crate::silhouette::{Class, Silhouettes};
 use penumbra_geometry::{MeshBvh, Ray, TriMesh, WindingNumber, min_enclosing_ball};
 use penumbra_math::progress::Progress;
 use rayon::prelude::*;
@@ -124,8 +127,10 @@ impl Occluder {
 pub struct BakeStats {
     /// Rays cast.
     pub rays_traced: u64,
-    /// Rays that hit the occluder.
+    /// Texels found occluded: rays cast that hit plus hits certified without a ray.
     pub rays_hit: u64,
+    /// Hits certified by the interior balls without casting a ray.
+    pub rays_certified: u64,
     /// Samples flagged inside.
     pub inside_samples: u64,
 }
@@ -161,9 +166,10 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// Whether building the silhouette bitmaps pays off for `rows` (azimuth, polar) rows of the
 /// layout (always the whole bake's rows, so every shard decides alike and the ray counters
-/// of shards add up to the single run's): the rays the bounding cones let through (estimated from the cone's solid angle)
-/// against the stamping work (one disc per cluster and bitmap, costed at a fifth of a
-/// missing ray). Only the speed depends on this choice, never the result.
+/// of shards add up to the single run's): the rays the bounding cones let through
+/// (estimated from the cones' solid angles) against the building work (one stamp per
+/// cluster and bitmap at ~2/3 of a ray, plus ~5M rays' worth for the interior balls;
+/// measured on the bunnies). Only the speed depends on this choice, never the result.
 fn worth_culling(occ: &Occluder, lighting: &Lighting, l: &ShellLayout, rows: usize) -> bool {
     let mut cone_rays = 0.0;
     for k in 0..l.radial {
@@ -172,7 +178,7 @@ fn worth_culling(occ: &Occluder, lighting: &Lighting, l: &ShellLayout, rows: usi
         cone_rays += frac * (rows * lighting.texel_count()) as f64;
     }
     let stamps = (lighting.texel_count() / 2) as f64 * (occ.mesh().indices.len() as f64 / 16.0).ceil();
-    cone_rays > 0.67 * stamps
+    cone_rays > 0.67 * stamps + 5.0e6
 }
 
 /// Traces the occluded-environment FIV of sample positions around one occluder.
@@ -196,23 +202,32 @@ impl<'a> FivTracer<'a> {
         self.sil.is_some()
     }
 
-    /// The occluded-environment FIV seen from `p`, with the number of rays cast and hits.
-    pub fn fiv(&self, p: [f64; 3]) -> ([[f64; 3]; 3], u64, u64) {
+    /// The occluded-environment FIV seen from `p`, with its counters (`inside_samples` 0).
+    pub fn fiv(&self, p: [f64; 3]) -> ([[f64; 3]; 3], BakeStats) {
         let (occ, lighting) = (self.occ, self.lighting);
         let f = occ.frame;
         let to_c = [f.center[0] - p[0], f.center[1] - p[1], f.center[2] - p[2]];
         let rho = dot(to_c, to_c).sqrt();
         let mut acc = [[0.0f64; 3]; 3];
-        let (mut rays, mut hits) = (0u64, 0u64);
+        let (mut rays, mut hits, mut certified) = (0u64, 0u64, 0u64);
+        let outside = rho >= f.radius;
         let mut trace = |t: usize| {
-            if let Some(s) = &self.sil {
-                if !s.may_hit(t, p) {
-                    return;
-                }
-            }
             let d = lighting.direction(t);
-            rays += 1;
-            if occ.bvh.any_hit(&Ray::new(p, d)) {
+            // from on or outside the ball, a ray heading toward its centre side has the ball's
+            // whole chord ahead of it: only then can a hit be certified
+            let ahead = outside && dot(d, to_c) > 0.0;
+            let hit = match self.sil.as_ref().map_or(Class::Trace, |s| s.classify(t, p, ahead)) {
+                Class::Miss => false,
+                Class::Hit => {
+                    certified += 1;
+                    true
+                }
+                Class::Trace => {
+                    rays += 1;
+                    occ.bvh.any_hit(&Ray::new(p, d))
+                }
+            };
+            if hit {
                 hits += 1;
                 let w = lighting.weight(t);
                 for c in 0..3 {
@@ -244,8 +259,21 @@ impl<'a> FivTracer<'a> {
                 }
             }
         }
-        (acc, rays, hits)
+        (acc, BakeStats { rays_traced: rays, rays_hit: hits, rays_certified: certified, inside_samples: 0 })
     }
+}
+
+/// Whether to build the silhouette bitmaps ([`crate::silhouette`]); only the speed and the
+/// `rays_traced`/`rays_certified` counters depend on it, never the FIVs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Culling {
+    /// When the bake is large enough to pay for them (the default).
+    #[default]
+    Auto,
+    /// Always.
+    Always,
+    /// Never: the bounding cone alone (for benchmarks and comparisons).
+    Never,
 }
 
 /// Bakes the samples of `shard` (all of them for [`Shard::WHOLE`]), parallel over
@@ -257,6 +285,18 @@ pub fn bake(
     shard: Shard,
     progress: &dyn Progress,
 ) -> Result<FivBake, FivError> {
+    bake_with(occ, lighting, params, shard, progress, Culling::Auto)
+}
+
+/// [`bake`] with an explicit [`Culling`] choice.
+pub fn bake_with(
+    occ: &Occluder,
+    lighting: &Lighting,
+    params: &FivParams,
+    shard: Shard,
+    progress: &dyn Progress,
+    culling: Culling,
+) -> Result<FivBake, FivError> {
     params.validate()?;
     let l = params.layout;
     shard.validate(l.azimuth).map_err(FivError::Shard)?;
@@ -266,14 +306,19 @@ pub fn bake(
     let frame = occ.frame;
     let mut fiv = vec![0.0f32; rows * k * 9];
     let mut inside = vec![0u8; rows * k];
-    let tracer = FivTracer::new(occ, lighting, worth_culling(occ, lighting, &l, l.azimuth * l.polar));
+    let cull = match culling {
+        Culling::Auto => worth_culling(occ, lighting, &l, l.azimuth * l.polar),
+        Culling::Always => true,
+        Culling::Never => false,
+    };
+    let tracer = FivTracer::new(occ, lighting, cull);
     let done = AtomicU64::new(0);
-    let (rays, hits, ins) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
+    let (rays, hits, cert, ins) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
     progress.update("fiv", 0, rows as u64);
     fiv.par_chunks_mut(k * 9).zip(inside.par_chunks_mut(k)).enumerate().for_each(|(row, (out, flags))| {
         let i = range.start + row / l.polar;
         let j = row % l.polar;
-        let (mut r, mut h, mut n_in) = (0u64, 0u64, 0u64);
+        let (mut r, mut h, mut ce, mut n_in) = (0u64, 0u64, 0u64, 0u64);
         for kk in 0..k {
             let p = l.position(&frame, i, j, kk);
             if l.rho_over_r(kk) <= 1.0 + 1e-9 && occ.is_inside(p) {
@@ -281,9 +326,10 @@ pub fn bake(
                 n_in += 1;
                 continue;
             }
-            let (v, rr, hh) = tracer.fiv(p);
-            r += rr;
-            h += hh;
+            let (v, st) = tracer.fiv(p);
+            r += st.rays_traced;
+            h += st.rays_hit;
+            ce += st.rays_certified;
             for c in 0..3 {
                 for x in 0..3 {
                     out[kk * 9 + c * 3 + x] = v[c][x] as f32;
@@ -292,6 +338,7 @@ pub fn bake(
         }
         rays.fetch_add(r, Ordering::Relaxed);
         hits.fetch_add(h, Ordering::Relaxed);
+        cert.fetch_add(ce, Ordering::Relaxed);
         ins.fetch_add(n_in, Ordering::Relaxed);
         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress.update("fiv", d, rows as u64);
@@ -310,6 +357,7 @@ pub fn bake(
         stats: BakeStats {
             rays_traced: rays.into_inner(),
             rays_hit: hits.into_inner(),
+            rays_certified: cert.into_inner(),
             inside_samples: ins.into_inner(),
         },
     })

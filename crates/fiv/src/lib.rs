@@ -31,13 +31,14 @@
 pub mod asset;
 pub mod bake;
 mod error;
+mod interior;
 pub mod layout;
 pub mod lighting;
 pub mod reference;
 pub mod silhouette;
 
 pub use asset::{FIVT_KIND_VERSION, FIVT_SECTIONS, FivMeta, Storage, merge, to_asset};
-pub use bake::{BakeStats, FivBake, FivParams, FivTracer, Occluder, bake};
+pub use bake::{BakeStats, Culling, FivBake, FivParams, FivTracer, Occluder, bake, bake_with};
 pub use error::FivError;
 pub use layout::{Frame, Shard, ShellLayout, UpAxis};
 pub use lighting::Lighting;

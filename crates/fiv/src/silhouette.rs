@@ -5,7 +5,8 @@
 //! line is fixed by the point where it crosses the plane through the ball centre `c`
 //! perpendicular to `ω`: `(u, v) = ((p − c)·a, (p − c)·b)` with `(a, b, ω)` orthonormal.
 //! So for every texel direction we mark, in a `RES × RES` bitmap over `[−R, R]²`, every
-//! pixel whose square meets the projection of a bounding sphere of a cluster of triangles
+//! pixel whose square meets the bounding square of the projection of a bounding sphere of
+//! a cluster of triangles
 //! (clusters: at most 16 triangles, by recursive median splits of their centroids; sphere: centre of
 //! the cluster's vertex box, radius to its farthest vertex, padded by 1e-9·R). A triangle
 //! lies in its cluster's sphere, so its projection lies in the sphere's projected disc: a ray
@@ -19,7 +20,8 @@ use rayon::prelude::*;
 
 /// Pixels per side of each bitmap.
 pub const RES: usize = 128;
-const WORDS: usize = RES * RES / 64;
+/// A bitmap: one `u128` per row (`RES` = 128 columns), bit `x` of row `y` = pixel `(x, y)`.
+type Bitmap = [u128; RES];
 /// Triangles per cluster.
 const CLUSTER: usize = 16;
 /// Largest bitmap memory (bytes) before the culler is skipped (fine cube maps).
@@ -37,7 +39,22 @@ pub struct Silhouettes {
     map: Vec<u32>,
     /// `(a, b)` per bitmap.
     axes: Vec<[[f64; 3]; 2]>,
-    bits: Vec<[u64; WORDS]>,
+    bits: Vec<Bitmap>,
+    /// Pixels every line through which certainly hits the mesh (see [`crate::interior`]):
+    /// fully inside an inner ball's disc and untouched by any cap's disc. Empty when the
+    /// mesh has no inner balls.
+    full: Vec<Bitmap>,
+}
+
+/// What a pixel lookup says about a ray.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Class {
+    /// The line misses the mesh.
+    Miss,
+    /// The ray certainly hits the mesh.
+    Hit,
+    /// Unknown: trace it.
+    Trace,
 }
 
 #[inline]
@@ -110,41 +127,59 @@ fn clusters(occ: &Occluder) -> Vec<([f64; 3], f64)> {
     out
 }
 
-/// Marks every pixel of `bm` whose square meets the disc of centre `(u, v)` and radius `r`
-/// (pixel units, origin at the bitmap corner): row by row, the pixels whose x-span meets
-/// `[u − w, u + w]` with `w = √(r² − dy²)`, `dy` the distance from `v` to the row.
-fn stamp(bm: &mut [u64; WORDS], u: f64, v: f64, r: f64) {
-    let last = (RES - 1) as f64;
-    let y0 = ((v - r).ceil() - 1.0).clamp(0.0, last) as usize;
-    let y1 = (v + r).floor().clamp(0.0, last) as usize;
-    for y in y0..=y1 {
-        let dy = if v < y as f64 {
-            y as f64 - v
-        } else if v > (y + 1) as f64 {
-            v - (y + 1) as f64
-        } else {
-            0.0
-        };
-        if dy > r {
+/// Marks every pixel of `bm` whose square meets the square `[u − r, u + r] × [v − r, v + r]`
+/// (pixel units, origin at the bitmap corner) — a superset of the pixels the disc of radius
+/// `r` touches, found with four roundings instead of a square root per row.
+fn stamp(bm: &mut Bitmap, u: f64, v: f64, r: f64) {
+    let last = (RES - 1) as i64;
+    let y0 = (ceil_i(v - r) - 1).clamp(0, last) as usize;
+    let y1 = floor_i(v + r).clamp(0, last) as usize;
+    let x0 = (ceil_i(u - r) - 1).clamp(0, last) as usize;
+    let x1 = floor_i(u + r).clamp(0, last) as usize;
+    let mask = (!0u128 >> (127 - x1)) & (!0u128 << x0);
+    for row in &mut bm[y0..=y1] {
+        *row |= mask;
+    }
+}
+
+/// `⌊x⌋` for finite `|x| < 2⁶³` without a libm call (baseline x86-64 has no rounding
+/// instruction): truncate, then step down for negative non-integers.
+#[inline]
+fn floor_i(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t - 1 } else { t }
+}
+
+/// `⌈x⌉`, see [`floor_i`].
+#[inline]
+fn ceil_i(x: f64) -> i64 {
+    -floor_i(-x)
+}
+
+/// Sets bits `x0..=x1` (`x0 ≤ x1 < 128`) of row `y`.
+#[inline]
+fn set_span(bm: &mut Bitmap, y: usize, x0: usize, x1: usize) {
+    bm[y] |= (!0u128 >> (127 - x1)) & (!0u128 << x0);
+}
+
+/// Marks every pixel of `bm` whose closed square lies inside the disc of centre `(u, v)` and
+/// radius `r` (pixel units): row by row, with `dy` the larger vertical distance from `v` to
+/// the row's edges, the pixels inside `[u − w, u + w]`, `w = √(r² − dy²)`.
+fn stamp_inner(bm: &mut Bitmap, u: f64, v: f64, r: f64) {
+    let res = RES as i64;
+    let y0 = floor_i(v - r).max(0);
+    let y1 = ceil_i(v + r).min(res);
+    for y in y0..y1 {
+        let yf = y as f64;
+        let dy = (v - yf).abs().max((v - (yf + 1.0)).abs());
+        if dy >= r {
             continue;
         }
         let w = (r * r - dy * dy).sqrt();
-        let x0 = ((u - w).ceil() - 1.0).clamp(0.0, last) as usize;
-        let x1 = (u + w).floor().clamp(0.0, last) as usize;
-        // set bits x0..=x1 of row y (RES / 64 words per row)
-        let row = y * RES;
-        let (a, b) = (row + x0, row + x1);
-        let (wa, wb) = (a / 64, b / 64);
-        let lo = !0u64 << (a % 64);
-        let hi = !0u64 >> (63 - b % 64);
-        if wa == wb {
-            bm[wa] |= lo & hi;
-        } else {
-            bm[wa] |= lo;
-            for word in &mut bm[wa + 1..wb] {
-                *word = !0;
-            }
-            bm[wb] |= hi;
+        let x0 = ceil_i(u - w).max(0);
+        let x1 = (floor_i(u + w) - 1).min(res - 1);
+        if x1 >= x0 {
+            set_span(bm, y as usize, x0 as usize, x1 as usize);
         }
     }
 }
@@ -154,7 +189,7 @@ impl Silhouettes {
     /// 256 MB (then only the cone culls).
     pub(crate) fn build(occ: &Occluder, lighting: &Lighting) -> Option<Self> {
         let texels = lighting.texel_count();
-        if texels.saturating_mul(WORDS * 8) / 2 > MAX_BYTES {
+        if texels.saturating_mul(core::mem::size_of::<Bitmap>()) / 2 > MAX_BYTES {
             return None;
         }
         let n = lighting.cube().size();
@@ -194,7 +229,7 @@ impl Silhouettes {
         let bits = axes
             .par_iter()
             .map(|[a, b]| {
-                let mut bm = [0u64; WORDS];
+                let mut bm = [0u128; RES];
                 for (c, r) in &rel {
                     let u = (dot(*c, *a) + f.radius) * scale;
                     let v = (dot(*c, *b) + f.radius) * scale;
@@ -203,13 +238,45 @@ impl Silhouettes {
                 bm
             })
             .collect();
-        Some(Self { center: f.center, radius: f.radius, scale, map, axes, bits })
+        let inside = crate::interior::interior(occ);
+        let to_rel = |balls: &[([f64; 3], f64)]| -> Vec<([f64; 3], f64)> {
+            balls
+                .iter()
+                .map(|(c, r)| ([c[0] - f.center[0], c[1] - f.center[1], c[2] - f.center[2]], *r * scale))
+                .collect()
+        };
+        let (inner, caps) = (to_rel(&inside.inner), to_rel(&inside.caps));
+        let full = if inner.is_empty() {
+            Vec::new()
+        } else {
+            axes.par_iter()
+                .map(|[a, b]| {
+                    let proj = |c: &[f64; 3]| ((dot(*c, *a) + f.radius) * scale, (dot(*c, *b) + f.radius) * scale);
+                    let mut bm = [0u128; RES];
+                    for (c, r) in &inner {
+                        let (u, v) = proj(c);
+                        stamp_inner(&mut bm, u, v, *r * (1.0 - 1e-9) - 1e-9);
+                    }
+                    let mut capped = [0u128; RES];
+                    for (c, r) in &caps {
+                        let (u, v) = proj(c);
+                        stamp(&mut capped, u, v, *r + 1e-9);
+                    }
+                    for (w, c) in bm.iter_mut().zip(&capped) {
+                        *w &= !c;
+                    }
+                    bm
+                })
+                .collect()
+        };
+        Some(Self { center: f.center, radius: f.radius, scale, map, axes, bits, full })
     }
 
-    /// Whether the line through `p` along texel `t`'s direction may hit the mesh (`false`:
-    /// it certainly misses).
+    /// Classifies the ray from `p` along texel `t`'s direction; `ahead` says the bounding
+    /// ball's chord along the ray lies ahead of `p` (`p` on or outside the ball, the ray
+    /// heading toward the centre's side): only then can a hit be certified.
     #[inline]
-    pub(crate) fn may_hit(&self, t: usize, p: [f64; 3]) -> bool {
+    pub(crate) fn classify(&self, t: usize, p: [f64; 3], ahead: bool) -> Class {
         let m = self.map[t] as usize;
         let q = [p[0] - self.center[0], p[1] - self.center[1], p[2] - self.center[2]];
         let [a, b] = self.axes[m];
@@ -217,25 +284,28 @@ impl Silhouettes {
         let v = (dot(q, b) + self.radius) * self.scale;
         const EDGE: f64 = 1e-6;
         if !(u >= -EDGE && v >= -EDGE && u <= RES as f64 + EDGE && v <= RES as f64 + EDGE) {
-            // outside the square around the projected ball: the line misses the ball
-            return false;
+            return Class::Miss;
         }
-        // (clamped like the stamps, so a line touching the ball's edge finds its pixel)
         let x = (u.max(0.0) as usize).min(RES - 1);
         let y = (v.max(0.0) as usize).min(RES - 1);
-        let i = y * RES + x;
-        self.bits[m][i / 64] >> (i % 64) & 1 == 1
+        if self.bits[m][y] >> x & 1 == 0 {
+            return Class::Miss;
+        }
+        if ahead && !self.full.is_empty() && self.full[m][y] >> x & 1 == 1 {
+            return Class::Hit;
+        }
+        Class::Trace
     }
 }
 
-/// Debug statistics: (cluster count, mean cluster radius / R, bitmaps, mean marked fraction).
+/// Statistics for benchmarks and docs: (clusters, bitmaps, marked fraction, certified
+/// fraction) of the pixels.
 #[doc(hidden)]
-pub fn debug_stats(occ: &Occluder, lighting: &Lighting) -> (usize, f64, usize, f64) {
-    let c = clusters(occ);
-    let r = c.iter().map(|x| x.1).sum::<f64>() / c.len() as f64 / occ.frame().radius;
-    let s = Silhouettes::build(occ, lighting).unwrap_or_else(|| unreachable!());
-    let marked: u64 = s.bits.iter().map(|b| b.iter().map(|w| w.count_ones() as u64).sum::<u64>()).sum();
-    (c.len(), r, s.bits.len(), marked as f64 / (s.bits.len() * RES * RES) as f64)
+pub fn debug_stats(occ: &Occluder, lighting: &Lighting) -> Option<(usize, usize, f64, f64)> {
+    let s = Silhouettes::build(occ, lighting)?;
+    let count = |v: &[Bitmap]| v.iter().map(|b| b.iter().map(|w| w.count_ones() as u64).sum::<u64>()).sum::<u64>();
+    let px = (s.bits.len() * RES * RES) as f64;
+    Some((clusters(occ).len(), s.bits.len(), count(&s.bits) as f64 / px, count(&s.full) as f64 / px))
 }
 
 #[cfg(test)]
@@ -243,19 +313,52 @@ mod tests {
     use super::*;
 
     #[test]
-    fn stamps_cover_exactly_the_touched_pixels() {
+    fn stamps_cover_exactly_the_pixels_the_square_touches() {
         for (u, v, r) in [(10.3, 20.7, 2.2), (0.2, 127.9, 1.0), (64.0, 64.0, 0.0), (63.9, 5.5, 40.0)] {
-            let mut bm = [0u64; WORDS];
+            let mut bm = [0u128; RES];
             stamp(&mut bm, u, v, r);
             for y in 0..RES {
                 for x in 0..RES {
                     let dx = (x as f64 - u).max(u - (x + 1) as f64).max(0.0);
                     let dy = (y as f64 - v).max(v - (y + 1) as f64).max(0.0);
-                    let touched = dx * dx + dy * dy <= r * r;
-                    let i = y * RES + x;
-                    assert_eq!(bm[i / 64] >> (i % 64) & 1 == 1, touched, "({u},{v},{r}) pixel ({x},{y})");
+                    let touched = dx <= r && dy <= r;
+                    assert_eq!(bm[y] >> x & 1 == 1, touched, "({u},{v},{r}) pixel ({x},{y})");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn inner_stamps_cover_exactly_the_contained_pixels() {
+        for (u, v, r) in [(10.3, 20.7, 2.2), (0.2, 127.9, 3.0), (64.0, 64.0, 1.0), (63.9, 5.5, 40.0)] {
+            let mut bm = [0u128; RES];
+            stamp_inner(&mut bm, u, v, r);
+            for y in 0..RES {
+                for x in 0..RES {
+                    let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
+                    let inside =
+                        corners.iter().all(|&(cx, cy)| (cx as f64 - u).powi(2) + (cy as f64 - v).powi(2) <= r * r);
+                    let set = bm[y] >> x & 1 == 1;
+                    // set ⇒ inside (certification must be conservative); inside but on the
+                    // disc's edge within rounding may stay unset
+                    assert!(!set || inside, "({u},{v},{r}) pixel ({x},{y}) set but not inside");
+                    if inside {
+                        let margin = corners
+                            .iter()
+                            .map(|&(cx, cy)| r * r - (cx as f64 - u).powi(2) - (cy as f64 - v).powi(2))
+                            .fold(f64::INFINITY, f64::min);
+                        assert!(set || margin < 1e-9, "({u},{v},{r}) pixel ({x},{y}) inside but unset");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn integer_floor_and_ceil() {
+        for x in [0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.9999, -2.9999, 1e-300, -1e-300, 127.0, -128.5] {
+            assert_eq!(floor_i(x), x.floor() as i64, "{x}");
+            assert_eq!(ceil_i(x), x.ceil() as i64, "{x}");
         }
     }
 

@@ -48,7 +48,9 @@ fn fast_path_matches_brute_force_everywhere() {
     let occ = Occluder::new(mesh).unwrap();
     let light = env(12);
     let p = params(7, 5, 4, 0.3, 2.5);
-    let b = bake(&occ, &light, &p, Shard::WHOLE, &NoProgress).unwrap();
+    // culling forced on: silhouette skips and interior certificates must change nothing
+    let b = bake_with(&occ, &light, &p, Shard::WHOLE, &NoProgress, Culling::Always).unwrap();
+    assert!(b.stats.rays_certified > 0);
     let power = light.power().iter().sum::<f64>();
     let l = p.layout;
     let f = occ.frame();
@@ -94,21 +96,24 @@ fn silhouette_culling_changes_no_bit() {
     let plain = FivTracer::new(&occ, &light, false);
     assert!(culled.culls() && !plain.culls());
     let l = params(9, 7, 5, 1.0, 4.0).layout;
-    let (mut rc, mut rp) = (0, 0);
+    let (mut rc, mut rp, mut certified) = (0, 0, 0);
     for i in 0..l.azimuth {
         for j in 0..l.polar {
             for k in 0..l.radial {
                 let p = l.position(&occ.frame(), i, j, k);
-                let (a, ra, ha) = culled.fiv(p);
-                let (b, rb, hb) = plain.fiv(p);
+                let (a, sa) = culled.fiv(p);
+                let (b, sb) = plain.fiv(p);
                 assert_eq!(a, b, "sample {i},{j},{k}");
-                assert_eq!(ha, hb);
-                rc += ra;
-                rp += rb;
+                assert_eq!(sa.rays_hit, sb.rays_hit);
+                assert_eq!(sb.rays_certified, 0);
+                rc += sa.rays_traced;
+                rp += sb.rays_traced;
+                certified += sa.rays_certified;
             }
         }
     }
     assert!(rc < rp, "culling removed no ray ({rc} vs {rp})");
+    assert!(certified > 0, "no hit certified");
 }
 
 #[test]
@@ -122,7 +127,7 @@ fn sphere_cap_fiv_matches_the_analytic_integral() {
     let tracer = FivTracer::new(&occ, &light, false);
     for (rho, dir) in [(2.0, [0.0, 1.0, 0.0]), (3.0, [0.6, 0.0, 0.8]), (1.5, [-0.48, 0.6, -0.64])] {
         let p = [rho * dir[0], rho * dir[1], rho * dir[2]];
-        let (fiv, _, _) = tracer.fiv(p);
+        let (fiv, _) = tracer.fiv(p);
         let sin2 = 1.0 / (rho * rho);
         for (c, l) in [2.0, 1.0, 0.5].into_iter().enumerate() {
             for x in 0..3 {

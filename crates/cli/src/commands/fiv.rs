@@ -221,6 +221,7 @@ pub fn bake_to(job: &FivJob, shard: Shard, output: &Path, mode: ProgressMode) ->
         "fiv_bytes": meta.metrics.fiv_bytes,
         "rays_traced": b.stats.rays_traced,
         "rays_hit": b.stats.rays_hit,
+        "rays_certified": b.stats.rays_certified,
         "inside_samples": b.stats.inside_samples,
         "center": f.center,
         "radius": f.radius,
