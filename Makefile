@@ -19,6 +19,7 @@ fmt:
 # Benchmarks (criterion); figures are recorded in docs/benchmarks.md.
 bench:
 	$(CARGO) bench --bench tables
+	$(CARGO) bench --bench fiv
 
 # The README's first command: bake the demo config.
 demo:

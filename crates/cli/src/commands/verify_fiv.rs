@@ -407,6 +407,19 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
         .unzip();
     let (e_all, max_abs, n_all) = metrics(&rt, &rf, |r| !inside[r]);
     let (e_vis, _, n_vis) = metrics(&rt, &rf, |r| !inside[r] && !covered[r]);
+    // receivers inside some occluder's bounding ball, where the lookup clamps ρ to the
+    // innermost shell when r_min ≥ 1
+    let in_ball: Vec<bool> = recv
+        .points
+        .iter()
+        .map(|p| {
+            placed.iter().zip(&centers).any(|(&(f, _), c)| {
+                let d = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
+                d < metas[f].frame.radius * metas[f].params.r_min.max(1.0)
+            })
+        })
+        .collect();
+    let (e_vis_out, _, n_vis_out) = metrics(&rt, &rf, |r| !inside[r] && !covered[r] && !in_ball[r]);
 
     // the other settings, for comparison
     let mut variants = serde_json::Map::new();
@@ -451,6 +464,8 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
         "receivers": n_all,
         "receivers_visible": n_vis,
         "receivers_inside": inside.iter().filter(|&&x| x).count(),
+        "receivers_in_shells_gap": n_vis - n_vis_out,
+        "nrmse_visible_outside_gap": e_vis_out,
         "receiver_kind": kind,
         "ns_per_receiver": ns_per_receiver,
         "partial": match partial { Partial::None => "none", Partial::Scale => "scale" },
