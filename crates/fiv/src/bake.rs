@@ -32,7 +32,7 @@ use crate::error::FivError;
 use crate::layout::{Frame, Shard, ShellLayout};
 use crate::lighting::Lighting;
 use crate::silhouette::{Class, Silhouettes};
-use penumbra_geometry::{MeshBvh, Ray, TriMesh, WindingNumber, min_enclosing_ball};
+use penumbra_geometry::{MeshBvh, TraversalStack, TriMesh, WindingNumber, min_enclosing_ball};
 use penumbra_math::progress::Progress;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -204,6 +204,11 @@ impl<'a> FivTracer<'a> {
 
     /// The occluded-environment FIV seen from `p`, with its counters (`inside_samples` 0).
     pub fn fiv(&self, p: [f64; 3]) -> ([[f64; 3]; 3], BakeStats) {
+        self.fiv_with(p, &mut self.occ.bvh.traversal_stack())
+    }
+
+    /// [`FivTracer::fiv`] with a caller-held traversal stack (no allocation).
+    pub fn fiv_with(&self, p: [f64; 3], stack: &mut TraversalStack) -> ([[f64; 3]; 3], BakeStats) {
         let (occ, lighting) = (self.occ, self.lighting);
         let f = occ.frame;
         let to_c = [f.center[0] - p[0], f.center[1] - p[1], f.center[2] - p[2]];
@@ -224,7 +229,7 @@ impl<'a> FivTracer<'a> {
                 }
                 Class::Trace => {
                     rays += 1;
-                    occ.bvh.any_hit(&Ray::new(p, d))
+                    occ.bvh.any_hit_prepared(p, lighting.prepared(t), 0.0, f64::INFINITY, stack)
                 }
             };
             if hit {
@@ -319,6 +324,7 @@ pub fn bake_with(
         let i = range.start + row / l.polar;
         let j = row % l.polar;
         let (mut r, mut h, mut ce, mut n_in) = (0u64, 0u64, 0u64, 0u64);
+        let mut stack = occ.bvh.traversal_stack();
         for kk in 0..k {
             let p = l.position(&frame, i, j, kk);
             if l.rho_over_r(kk) <= 1.0 + 1e-9 && occ.is_inside(p) {
@@ -326,7 +332,7 @@ pub fn bake_with(
                 n_in += 1;
                 continue;
             }
-            let (v, st) = tracer.fiv(p);
+            let (v, st) = tracer.fiv_with(p, &mut stack);
             r += st.rays_traced;
             h += st.rays_hit;
             ce += st.rays_certified;

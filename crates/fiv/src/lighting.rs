@@ -7,7 +7,7 @@
 //! their centre directions, so a sample can skip every tile outside the cone that bounds
 //! its occluder.
 
-use penumbra_geometry::{CubeFace, CubeMap};
+use penumbra_geometry::{CubeFace, CubeMap, PreparedDir};
 use rayon::prelude::*;
 
 /// Texels per tile side.
@@ -34,6 +34,8 @@ pub struct Lighting {
     dirs: Vec<[f64; 3]>,
     /// `L·dΩ` per texel and channel.
     weights: Vec<[f64; 3]>,
+    /// Texel directions prepared for ray casting.
+    prepared: Vec<PreparedDir>,
     pub(crate) tiles: Vec<Tile>,
     /// Texel indices grouped by tile.
     pub(crate) tile_texels: Vec<u32>,
@@ -80,7 +82,14 @@ impl Lighting {
                 }
             }
         }
-        Self { cube, dirs, weights, tiles, tile_texels }
+        // texel-centre directions are unit and finite
+        let prepared = dirs.iter().map(|&d| PreparedDir::new(d).unwrap_or_else(|| unreachable!())).collect();
+        Self { cube, dirs, weights, prepared, tiles, tile_texels }
+    }
+
+    /// Texel `t`'s direction prepared for [`penumbra_geometry::MeshBvh::any_hit_prepared`].
+    pub fn prepared(&self, t: usize) -> &PreparedDir {
+        &self.prepared[t]
     }
 
     /// The radiance cube map.

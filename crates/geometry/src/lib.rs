@@ -56,7 +56,7 @@ pub mod shapes;
 mod testutil;
 
 pub use ball::{Ball, min_enclosing_ball};
-pub use bvh::{ClosestPoint, Hit, MeshBvh, Ray};
+pub use bvh::{ClosestPoint, Hit, MeshBvh, PreparedDir, Ray, TraversalStack};
 pub use env::{CubeFace, CubeMap, EnvMap, EnvReport, load_env_map};
 pub use error::{EnvError, EnvErrorKind, EnvMapError, MeshError, MeshErrorKind, MeshValidationError};
 pub use import::{ImportReport, load_mesh};
