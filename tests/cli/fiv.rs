@@ -198,6 +198,31 @@ fn verify_plane_reports_its_keys_and_writes_the_image() {
     // one of --plane / --placement is required
     let (code, _, _) = run(penumbra().args(["verify", "fiv", "--fiv", a]));
     assert_eq!(code, 2);
+    // not a FIVT asset, a damaged one, a bad placement: exit 2 naming the file
+    let tables = dir.path().join("t.shtb");
+    let (code, _, stderr) =
+        run(penumbra().args(["tables", "--order", "2", "--theta-samples", "16", "-o"]).arg(&tables));
+    assert_eq!(code, 0, "{stderr}");
+    let (code, _, stderr) = run(penumbra().args(["verify", "fiv", "--plane", "--fiv"]).arg(&tables));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("t.shtb") && stderr.contains("FIVT"), "{stderr}");
+    let mut bytes = std::fs::read(&asset).unwrap();
+    let n = bytes.len();
+    bytes[n - 10] ^= 0xFF;
+    let broken = dir.path().join("broken.fivt");
+    std::fs::write(&broken, &bytes).unwrap();
+    let (code, _, stderr) = run(penumbra().args(["verify", "fiv", "--plane", "--fiv"]).arg(&broken));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("broken.fivt"), "{stderr}");
+    let placement = dir.path().join("p.toml");
+    std::fs::write(&placement, "[receivers]\nkind = \"volume\"\n").unwrap();
+    let (code, _, stderr) = run(penumbra().args(["verify", "fiv", "--fiv", a, "--placement"]).arg(&placement));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("volume"), "{stderr}");
+    std::fs::write(&placement, "[[occluder]]\nfiv = 3\n").unwrap();
+    let (code, _, stderr) = run(penumbra().args(["verify", "fiv", "--fiv", a, "--placement"]).arg(&placement));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("--fiv 3"), "{stderr}");
 }
 
 /// Two spheres whose shadows overlap under the area lights (FIV Fig. 15).

@@ -216,11 +216,23 @@ impl<'a> FivTracer<'a> {
         let mut acc = [[0.0f64; 3]; 3];
         let (mut rays, mut hits, mut certified) = (0u64, 0u64, 0u64);
         let outside = rho >= f.radius;
+        // A ray heading away from the centre's side (d·(c − p) ≤ 0) stays within
+        // √(R² − ρ²) of p while inside the ball (0 from on or outside it); when no mesh point
+        // is that close, it cannot hit. Decided once per sample near the ball's surface (the
+        // innermost shell at ρ = R, whose rounded positions fall on either side of it).
+        let away_misses = rho >= f.radius * (1.0 - 1e-6) && {
+            let reach = (f.radius * f.radius - rho * rho).max(0.0).sqrt();
+            occ.bvh.closest_point_within(p, reach).is_none()
+        };
         let mut trace = |t: usize| {
             let d = lighting.direction(t);
+            let towards = dot(d, to_c) > 0.0;
+            if away_misses && !towards {
+                return;
+            }
             // from on or outside the ball, a ray heading toward its centre side has the ball's
             // whole chord ahead of it: only then can a hit be certified
-            let ahead = outside && dot(d, to_c) > 0.0;
+            let ahead = outside && towards;
             let hit = match self.sil.as_ref().map_or(Class::Trace, |s| s.classify(t, p, ahead)) {
                 Class::Miss => false,
                 Class::Hit => {

@@ -407,15 +407,15 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
         .unzip();
     let (e_all, max_abs, n_all) = metrics(&rt, &rf, |r| !inside[r]);
     let (e_vis, _, n_vis) = metrics(&rt, &rf, |r| !inside[r] && !covered[r]);
-    // receivers inside some occluder's bounding ball, where the lookup clamps ρ to the
-    // innermost shell when r_min ≥ 1
+    // receivers nearer to some occluder's centre than its innermost shell (the lookup clamps
+    // ρ there)
     let in_ball: Vec<bool> = recv
         .points
         .iter()
         .map(|p| {
             placed.iter().zip(&centers).any(|(&(f, _), c)| {
                 let d = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
-                d < metas[f].frame.radius * metas[f].params.r_min.max(1.0)
+                d < metas[f].frame.radius * metas[f].params.r_min
             })
         })
         .collect();
