@@ -22,6 +22,7 @@ bench:
 	$(CARGO) bench --bench spheres
 	$(CARGO) bench --bench mrt
 	$(CARGO) bench --bench shadows
+	$(CARGO) bench --bench fiv
 
 # The README's first command: bake the demo config.
 demo:

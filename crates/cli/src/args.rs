@@ -33,6 +33,9 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Run every stage of a bake config (only the stages whose inputs changed).
     Bake(BakeArgs),
+    /// Bake FIV occlusion textures for an occluder under an environment (FIV §4.2);
+    /// `penumbra fiv merge` joins shards.
+    Fiv(FivArgs),
     /// Measure an asset's accuracy against the brute-force reference.
     Verify(VerifyArgs),
     /// Print the JSON Schema of the bake config.
@@ -196,6 +199,106 @@ pub struct SpheresExportArgs {
     pub subdivisions: u32,
 }
 
+/// `penumbra fiv`: bake (default) or `merge`.
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct FivArgs {
+    /// `merge`: join shard assets.
+    #[command(subcommand)]
+    pub command: Option<FivCommand>,
+    /// Bake options.
+    #[command(flatten)]
+    pub bake: FivBakeArgs,
+}
+
+/// Subcommands of `penumbra fiv`.
+#[derive(Debug, Subcommand)]
+pub enum FivCommand {
+    /// Join the shards of one bake (`--shard K/N`, any order) into the bytes a single run writes.
+    Merge(FivMergeArgs),
+}
+
+/// `penumbra fiv` bake options.
+#[derive(Debug, Args)]
+pub struct FivBakeArgs {
+    /// Occluder mesh (.obj, .gltf, .glb) or a procedural one: `builtin:torus`, `builtin:sphere`.
+    #[arg(long, required = true)]
+    pub mesh: Option<String>,
+    /// Environment map (lat-long .exr or .hdr, OpenEXR orientation) or `builtin:area-lights`.
+    #[arg(long, required = true)]
+    pub env: Option<String>,
+    /// Rotate the environment by 180° about an axis before baking (exact texel permutation);
+    /// `z180` brings the upside-down grace_latlong.exr probe upright.
+    #[arg(long, value_enum, default_value_t = EnvRotateArg::None)]
+    pub env_rotate: EnvRotateArg,
+    /// Samples AxPxK: azimuth × polar (both poles) × radial shells.
+    #[arg(long, default_value = "32x17x15", value_name = "AxPxK")]
+    pub samples: String,
+    /// Innermost shell radius in units of the bounding radius R (0 <= r_min < r_max).
+    #[arg(long, default_value_t = 1.0)]
+    pub r_min: f64,
+    /// Outermost shell radius in units of R (r_min < r_max <= 1000).
+    #[arg(long, default_value_t = 8.0)]
+    pub r_max: f64,
+    /// Polar axis of the shells: y (glTF, most OBJ) or z.
+    #[arg(long, value_enum, default_value_t = UpArg::Y)]
+    pub up: UpArg,
+    /// Face size of the environment cube map (6·S² directional lights).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=512))]
+    pub cube_size: u32,
+    /// Face size of the diffuse irradiance cube map.
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub irradiance_size: u32,
+    /// Store the FIVs as f16 (18 bytes per sample instead of 36).
+    #[arg(long)]
+    pub half: bool,
+    /// Bake only the azimuth slab K of N (0-based); `penumbra fiv merge` joins the slabs.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Output asset (.fivt). Parent directories are created.
+    #[arg(short = 'o', long, required = true)]
+    pub output: Option<PathBuf>,
+    /// Print one JSON object with the results on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Environment rotation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum EnvRotateArg {
+    /// As stored.
+    None,
+    /// (x, y, z) → (x, −y, −z).
+    X180,
+    /// (x, y, z) → (−x, y, −z).
+    Y180,
+    /// (x, y, z) → (−x, −y, z).
+    Z180,
+}
+
+/// Polar axis choice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum UpArg {
+    /// +Y up.
+    Y,
+    /// +Z up.
+    Z,
+}
+
+/// `penumbra fiv merge`.
+#[derive(Debug, Args)]
+pub struct FivMergeArgs {
+    /// Shard assets (every K of one bake's K/N, any order).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output asset.
+    #[arg(short = 'o', long)]
+    pub output: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
 /// `penumbra verify`.
 #[derive(Debug, Args)]
 pub struct VerifyArgs {
@@ -209,4 +312,46 @@ pub struct VerifyArgs {
 pub enum VerifyCommand {
     /// Sphere-proxy soft shadows (runtime) against ray-traced truth (SHEXP §4–7, Fig. 7).
     Shadows(crate::commands::verify_shadows::VerifyShadowsArgs),
+    /// FIV shadows (runtime) against brute-force ray-traced irradiance (FIV §5).
+    Fiv(VerifyFivArgs),
+}
+
+/// Partial-occluder handling at run time (FIV §4.3.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PartialArg {
+    /// Use the FIV as it is (default; wins in docs/fiv.md).
+    None,
+    /// Scale by (d + R)/2R.
+    Scale,
+}
+
+/// `penumbra verify fiv`.
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("receivers").required(true).args(["plane", "placement"])))]
+pub struct VerifyFivArgs {
+    /// FIVT assets (one per occluder; repeat for several).
+    #[arg(long = "fiv", required = true, value_name = "ASSET")]
+    pub fivs: Vec<PathBuf>,
+    /// Receivers on a ground plane touching the occluders' lowest point: 128×128 cell
+    /// centres of the square ±3R around the centre's projection.
+    #[arg(long)]
+    pub plane: bool,
+    /// A placement file (TOML): occluder offsets and receivers; see docs/fiv.md.
+    #[arg(long, value_name = "FILE")]
+    pub placement: Option<PathBuf>,
+    /// Partial-occluder handling.
+    #[arg(long, value_enum, default_value_t = PartialArg::None)]
+    pub partial: PartialArg,
+    /// Disable the multi-occluder overlap correction (eq. 13–14).
+    #[arg(long)]
+    pub no_overlap: bool,
+    /// Write runtime | reference | difference as a PNG.
+    #[arg(long, value_name = "OUT.png")]
+    pub image: Option<PathBuf>,
+    /// Exit with code 1 when nrmse_visible exceeds this.
+    #[arg(long, value_name = "X")]
+    pub max_nrmse: Option<f64>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
 }

@@ -11,7 +11,7 @@ mod types;
 mod validate;
 
 pub use error::{ConfigError, ConfigErrorKind};
-pub use types::{BakeConfig, MrtStage, SphereMethod, SpheresStage, TablesStage};
+pub use types::{BakeConfig, EnvRotate, FivStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis};
 pub use validate::{Issue, validate};
 
 use std::path::{Path, PathBuf};

@@ -93,11 +93,65 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
         }
         outputs.push(name);
     }
+    for (i, f) in c.fiv.iter().enumerate() {
+        let key = |k: &str| format!("fiv[{i}].{k}");
+        if f.mesh.trim().is_empty() {
+            out.push(issue(&key("mesh"), "must not be empty"));
+        }
+        if f.env.trim().is_empty() {
+            out.push(issue(&key("env"), "must not be empty"));
+        }
+        // the same ranges as penumbra_fiv::layout and penumbra_fiv::bake
+        if let Some([a, p, k]) = f.samples {
+            for (name, v, lo, hi) in [("azimuth", a, 2, 4096), ("polar", p, 2, 2049), ("radial", k, 2, 1024)] {
+                if !(lo..=hi).contains(&v) {
+                    out.push(issue(
+                        &key("samples"),
+                        format!("{name} count {v} is out of range (allowed: {lo}..={hi})"),
+                    ));
+                }
+            }
+            let n = a as u64 * p as u64 * k as u64;
+            if n > 1 << 24 {
+                out.push(issue(&key("samples"), format!("{n} samples are too many (allowed: at most 16777216)")));
+            }
+        }
+        let r_min = f.r_min.unwrap_or(1.0);
+        let r_max = f.r_max.unwrap_or(8.0);
+        if !(r_min.is_finite() && (0.0..1000.0).contains(&r_min)) {
+            out.push(issue(&key("r_min"), format!("{r_min} is out of range (allowed: 0 <= r_min < 1000)")));
+        } else if !(r_max.is_finite() && r_max > r_min && r_max <= 1000.0) {
+            out.push(issue(&key("r_max"), format!("{r_max} is out of range (allowed: r_min < r_max <= 1000)")));
+        }
+        if let Some(s) = f.cube_size {
+            if !(1..=512).contains(&s) {
+                out.push(issue(&key("cube_size"), format!("{s} is out of range (allowed: 1..=512)")));
+            }
+        }
+        if let Some(s) = f.irradiance_size {
+            if !(1..=256).contains(&s) {
+                out.push(issue(&key("irradiance_size"), format!("{s} is out of range (allowed: 1..=256)")));
+            }
+        }
+        if let Some(o) = &f.output {
+            if !plain_file_name(o) {
+                out.push(issue(&key("output"), format!("{o:?} must be a plain file name (no directories)")));
+            }
+        }
+        let name = f.output_name();
+        if outputs.contains(&name) || c.tables.as_ref().is_some_and(|t| t.output_name() == name) {
+            out.push(issue(&key("output"), format!("{name:?} is written by another stage too (set `output`)")));
+        }
+        outputs.push(name);
+    }
     if let Some(m) = &c.mrt {
         validate_mrt(m, &mut out);
     }
     if !c.has_stage() {
-        out.push(issue("stages", "the config names no stage to bake (add a stage table such as [tables] or [mrt])"));
+        out.push(issue(
+            "stages",
+            "the config names no stage to bake (add a stage table such as [tables], [[spheres]], [[fiv]] or [mrt])",
+        ));
     }
     out
 }

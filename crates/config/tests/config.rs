@@ -109,3 +109,40 @@ fn spheres_entries_are_validated_with_their_index() {
     assert_eq!(e.key, "spheres[0].method");
     assert_eq!(e.line, Some(5));
 }
+
+#[test]
+fn fiv_stages_parse_with_defaults() {
+    let c = parse_str(
+        "output_dir = \"out\"\n[[fiv]]\nmesh = \"meshes/bunny.obj\"\nenv = \"builtin:area-lights\"\n\n[[fiv]]\nmesh = \"builtin:torus\"\nenv = \"sky.exr\"\nsamples = [64, 33, 30]\nup = \"z\"\nenv_rotate = \"z180\"\nhalf = true\n",
+        Path::new("a.toml"),
+    )
+    .unwrap();
+    assert!(c.has_stage());
+    assert_eq!(c.fiv.len(), 2);
+    assert_eq!(c.fiv[0].output_name(), "bunny.fivt");
+    assert_eq!(c.fiv[1].output_name(), "torus.fivt");
+    assert_eq!(c.fiv[1].samples, Some([64, 33, 30]));
+    assert_eq!(c.fiv[1].up, Some(penumbra_config::UpAxis::Z));
+    assert_eq!(c.fiv[1].env_rotate, Some(penumbra_config::EnvRotate::Z180));
+}
+
+#[test]
+fn fiv_stage_errors_name_the_array_entry_and_line() {
+    let body = "output_dir = \"out\"\n[[fiv]]\nmesh = \"builtin:torus\"\nenv = \"e.exr\"\n\n[[fiv]]\nmesh = \"builtin:sphere\"\nenv = \"e.exr\"\nsamples = [32, 1, 15]\n";
+    let e = err(body);
+    assert_eq!(e.kind, ConfigErrorKind::Invalid);
+    assert_eq!(e.key, "fiv[1].samples");
+    assert_eq!(e.line, Some(9));
+    assert!(e.to_string().contains("allowed: 2..=2049"), "{e}");
+    let e = err("output_dir = \"out\"\n[[fiv]]\nmesh = \"a.obj\"\nenv = \"e.exr\"\nr_min = 2.0\nr_max = 1.5\n");
+    assert_eq!(e.key, "fiv[0].r_max");
+    assert_eq!(e.line, Some(6));
+    let e = err(
+        "output_dir = \"out\"\n[[fiv]]\nmesh = \"a.obj\"\nenv = \"e.exr\"\n[[fiv]]\nmesh = \"b/a.obj\"\nenv = \"e.exr\"\n",
+    );
+    assert_eq!(e.key, "fiv[1].output");
+    assert!(e.to_string().contains("another stage"), "{e}");
+    let e = err("output_dir = \"out\"\n[[fiv]]\nmesh = \"a.obj\"\nenv = \"e.exr\"\nsampels = [1, 2, 3]\n");
+    assert_eq!(e.key, "fiv[0].sampels");
+    assert_eq!(e.line, Some(5));
+}

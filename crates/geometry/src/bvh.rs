@@ -247,7 +247,8 @@ impl MeshBvh {
 
     /// Clips the ray to the padded mesh box in f64: the node-traversal start `t0` and end.
     #[inline]
-    fn clip(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+    fn clip(&self, o: DVec3, pd: &PreparedDir, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+        let d = pd.d;
         let mut t0 = tmin;
         let mut t1 = tmax;
         for k in 0..3 {
@@ -257,7 +258,7 @@ impl MeshBvh {
                 }
                 continue;
             }
-            let inv = 1.0 / d[k];
+            let inv = pd.inv[k];
             let (a, b) = {
                 let a = (self.padded_min[k] - o[k]) * inv;
                 let b = (self.padded_max[k] - o[k]) * inv;
@@ -272,37 +273,31 @@ impl MeshBvh {
     /// Runs the CWBVH traversal for the ray clipped to `[t0, t1]`, calling `prim(slot)` for
     /// every candidate primitive; `prim` may shrink the ray (a closer hit) or stop.
     #[inline]
-    fn traverse<F>(&self, o: DVec3, d: DVec3, t0: f64, t1: f64, prim: F)
+    fn traverse<F>(&self, o: DVec3, pd: &PreparedDir, t0: f64, t1: f64, prim: F)
     where
         F: FnMut(usize) -> Step,
     {
         if self.depth < STACK_INLINE {
             let mut buf = [UVec2::ZERO; STACK_INLINE];
-            self.traverse_with(&mut buf, o, d, t0, t1, prim);
+            self.traverse_with(&mut buf, o, pd, t0, t1, prim);
         } else {
             let mut buf = vec![UVec2::ZERO; self.depth + 2];
-            self.traverse_with(&mut buf, o, d, t0, t1, prim);
+            self.traverse_with(&mut buf, o, pd, t0, t1, prim);
         }
     }
 
     #[inline]
-    fn traverse_with<F>(&self, buf: &mut [UVec2], o: DVec3, d: DVec3, t0: f64, t1: f64, mut prim: F)
+    fn traverse_with<F>(&self, buf: &mut [UVec2], o: DVec3, pd: &PreparedDir, t0: f64, t1: f64, mut prim: F)
     where
         F: FnMut(usize) -> Step,
     {
-        let len = d.length();
-        let dn = d / len;
+        let (d, len, dir) = (pd.d, pd.len, pd.dir32);
         let start = (o + t0 * d - self.center) * self.scale;
-        let fix = |x: f64| {
-            let f = x as f32;
-            if f.abs() < TINY_DIR { TINY_DIR } else { f }
-        };
-        let dir = Vec3A::new(fix(dn.x), fix(dn.y), fix(dn.z));
         let span = ((t1 - t0) * len * self.scale) as f32;
         let mut ray = obvhs::ray::Ray {
             origin: Vec3A::new(start.x as f32, start.y as f32, start.z as f32),
             direction: dir,
-            inv_direction: Vec3A::ONE / dir,
+            inv_direction: pd.inv32,
             tmin: 0.0,
             tmax: span.next_up() * (1.0 + 1e-6) + PAD as f32,
         };
@@ -312,7 +307,7 @@ impl MeshBvh {
             stack: SliceStack { data: buf, len: 0 },
             current_group: if self.cwbvh.nodes.is_empty() { UVec2::ZERO } else { uvec2(0, 0x8000_0000) },
             primitive_group: UVec2::ZERO,
-            oct_inv4: octant_inv4(dir),
+            oct_inv4: pd.oct,
             primitive_id: 0,
             hitmask: 0,
         };
@@ -332,12 +327,15 @@ impl MeshBvh {
     /// `None` for a miss or an invalid ray (zero or non-finite direction, non-finite origin).
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let o = DVec3::from(ray.origin);
-        let d = DVec3::from(ray.direction);
-        let kernel = RayKernel::new(o, d)?;
-        let (t0, t1) = self.clip(o, d, ray.tmin, ray.tmax)?;
+        let pd = PreparedDir::new(ray.direction)?;
+        if !o.is_finite() {
+            return None;
+        }
+        let kernel = pd.kernel.with_origin(o);
+        let (t0, t1) = self.clip(o, &pd, ray.tmin, ray.tmax)?;
         let mut best: Option<Hit> = None;
         let mut best_t = ray.tmax;
-        self.traverse(o, d, t0, t1, |slot| {
+        self.traverse(o, &pd, t0, t1, |slot| {
             let [a, b, c] = self.tris[slot];
             if let Some((t, b1, b2)) = kernel.intersect(a, b, c, ray.tmin, best_t) {
                 let id = self.ids[slot];
@@ -358,16 +356,19 @@ impl MeshBvh {
 
     /// Whether anything is hit in `[ray.tmin, ray.tmax]` (occlusion). Stops at the first hit.
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        let o = DVec3::from(ray.origin);
-        let d = DVec3::from(ray.direction);
-        let Some(kernel) = RayKernel::new(o, d) else {
+        let Some(pd) = PreparedDir::new(ray.direction) else {
             return false;
         };
-        let Some((t0, t1)) = self.clip(o, d, ray.tmin, ray.tmax) else {
+        let o = DVec3::from(ray.origin);
+        if !o.is_finite() {
+            return false;
+        }
+        let kernel = pd.kernel.with_origin(o);
+        let Some((t0, t1)) = self.clip(o, &pd, ray.tmin, ray.tmax) else {
             return false;
         };
         let mut hit = false;
-        self.traverse(o, d, t0, t1, |slot| {
+        self.traverse(o, &pd, t0, t1, |slot| {
             let [a, b, c] = self.tris[slot];
             if kernel.intersect(a, b, c, ray.tmin, ray.tmax).is_some() {
                 hit = true;
@@ -395,6 +396,47 @@ impl MeshBvh {
         }
     }
 
+    /// A traversal stack for [`MeshBvh::any_hit_prepared`] (one per thread, reused).
+    pub fn traversal_stack(&self) -> TraversalStack {
+        TraversalStack(vec![UVec2::ZERO; (self.depth + 2).max(STACK_INLINE)])
+    }
+
+    /// [`MeshBvh::any_hit`] of the ray `origin + t·d`, `t ∈ [tmin, tmax]`, for a direction
+    /// prepared once ([`PreparedDir`]) and a caller-held stack: the same arithmetic, so the
+    /// same answer bit for bit, without the per-ray divisions, normalisation and stack
+    /// initialisation (for casting many rays along a few directions).
+    pub fn any_hit_prepared(
+        &self,
+        origin: [f64; 3],
+        pd: &PreparedDir,
+        tmin: f64,
+        tmax: f64,
+        stack: &mut TraversalStack,
+    ) -> bool {
+        let o = DVec3::from(origin);
+        if !o.is_finite() {
+            return false;
+        }
+        let kernel = pd.kernel.with_origin(o);
+        let Some((t0, t1)) = self.clip(o, pd, tmin, tmax) else {
+            return false;
+        };
+        if stack.0.len() < self.depth + 2 {
+            stack.0.resize(self.depth + 2, UVec2::ZERO);
+        }
+        let mut hit = false;
+        self.traverse_with(&mut stack.0, o, pd, t0, t1, |slot| {
+            let [a, b, c] = self.tris[slot];
+            if kernel.intersect(a, b, c, tmin, tmax).is_some() {
+                hit = true;
+                Step::Stop
+            } else {
+                Step::Continue
+            }
+        });
+        hit
+    }
+
     /// The point of the surface nearest to `p` (`None` for an empty mesh or non-finite `p`).
     pub fn closest_point(&self, p: [f64; 3]) -> Option<ClosestPoint> {
         self.closest_point_within(p, f64::INFINITY)
@@ -411,6 +453,42 @@ impl MeshBvh {
         })
     }
 }
+
+/// A ray direction with everything the traversal derives from it computed once: the
+/// watertight kernel's shear, the f64 inverse for clipping, the normalised f32 direction
+/// with its inverse and octant for the node tests. Used by every ray query, so
+/// [`MeshBvh::any_hit_prepared`] and [`MeshBvh::any_hit`] agree bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub struct PreparedDir {
+    d: DVec3,
+    inv: DVec3,
+    len: f64,
+    dir32: Vec3A,
+    inv32: Vec3A,
+    oct: u32,
+    kernel: RayKernel,
+}
+
+impl PreparedDir {
+    /// `None` for a zero or non-finite direction (need not be unit length).
+    pub fn new(direction: [f64; 3]) -> Option<Self> {
+        let d = DVec3::from(direction);
+        let kernel = RayKernel::for_direction(d)?;
+        let len = d.length();
+        let dn = d / len;
+        let fix = |x: f64| {
+            let f = x as f32;
+            if f.abs() < TINY_DIR { TINY_DIR } else { f }
+        };
+        let dir32 = Vec3A::new(fix(dn.x), fix(dn.y), fix(dn.z));
+        let inv = DVec3::new(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
+        Some(Self { d, inv, len, dir32, inv32: Vec3A::ONE / dir32, oct: octant_inv4(dir32), kernel })
+    }
+}
+
+/// Scratch stack for [`MeshBvh::any_hit_prepared`].
+#[derive(Debug, Clone)]
+pub struct TraversalStack(Vec<UVec2>);
 
 /// What the primitive callback asks the traversal to do.
 enum Step {

@@ -54,8 +54,14 @@ proptest! {
     #[test]
     fn any_hit_matches_brute_force(mesh in soup(), rays in prop::collection::vec(ray(), 32)) {
         let bvh = MeshBvh::build(&mesh).unwrap();
+        let mut stack = bvh.traversal_stack();
         for r in &rays {
-            prop_assert_eq!(bvh.any_hit(r), any_hit_brute_force(&mesh, r), "ray {:?}", r);
+            let expect = any_hit_brute_force(&mesh, r);
+            prop_assert_eq!(bvh.any_hit(r), expect, "ray {:?}", r);
+            // the prepared-direction path is the same query
+            let prepared = crate::bvh::PreparedDir::new(r.direction)
+                .is_some_and(|pd| bvh.any_hit_prepared(r.origin, &pd, r.tmin, r.tmax, &mut stack));
+            prop_assert_eq!(prepared, expect, "prepared ray {:?}", r);
         }
     }
 

@@ -27,7 +27,7 @@ mod tests {
 
     #[test]
     fn round_trips_exactly() {
-        let m = crate::procedural::torus(1.0, 0.3, 12, 7);
+        let m = crate::procedural::torus([0.0; 3], 1.0, 0.3, 12, 7);
         let text = obj_text(&m, "torus\nfor a test");
         assert!(text.starts_with("# torus\n# for a test\nv "));
         let (back, _) = load_obj_bytes(std::path::Path::new("t.obj"), text.as_bytes()).unwrap();

@@ -20,7 +20,24 @@ impl RayKernel {
     /// `None` for a zero or non-finite direction.
     #[inline]
     pub(crate) fn new(origin: DVec3, dir: DVec3) -> Option<Self> {
-        if !origin.is_finite() || !dir.is_finite() {
+        if !origin.is_finite() {
+            return None;
+        }
+        Self::for_direction(dir).map(|k| k.with_origin(origin))
+    }
+
+    /// The same kernel for another origin (the direction-dependent part is kept).
+    #[inline]
+    pub(crate) fn with_origin(mut self, origin: DVec3) -> Self {
+        self.origin = origin;
+        self
+    }
+
+    /// The direction-dependent part (origin zero); `None` for a zero or non-finite direction.
+    #[inline]
+    pub(crate) fn for_direction(dir: DVec3) -> Option<Self> {
+        let origin = DVec3::ZERO;
+        if !dir.is_finite() {
             return None;
         }
         let a = dir.abs();

@@ -38,9 +38,11 @@
 //! - [`procedural`]: icosphere, box, torus, grid, implicit surfaces, the demo character.
 //! - [`voxel`]: [`SignedDistanceGrid`] (narrow-band exact signed distances on a grid) and the
 //!   fast exact [`InsideOracle`]; triangle/box overlap.
-//! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`].
+//! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`], procedural area-light maps.
+//! - [`ball`]: minimum enclosing ball ([`min_enclosing_ball`]).
 
 mod aabb_tree;
+pub mod ball;
 pub mod bvh;
 #[cfg(test)]
 mod bvh_tests;
@@ -57,7 +59,8 @@ pub mod scene;
 mod testutil;
 pub mod voxel;
 
-pub use bvh::{ClosestPoint, Hit, MeshBvh, Ray};
+pub use ball::{Ball, min_enclosing_ball};
+pub use bvh::{ClosestPoint, Hit, MeshBvh, PreparedDir, Ray, TraversalStack};
 pub use env::{CubeFace, CubeMap, EnvMap, EnvReport, load_env_map};
 pub use error::{EnvError, EnvErrorKind, EnvMapError, MeshError, MeshErrorKind, MeshValidationError};
 pub use import::{ImportReport, load_mesh};

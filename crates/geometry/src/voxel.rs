@@ -599,7 +599,7 @@ mod tests {
         for (mesh, exact) in [
             (icosphere(4, 1.0, [0.1, 0.2, 0.3]), None),
             (aabb_box([0.0; 3], [2.0, 1.0, 0.5]), Some(1.0)),
-            (torus(1.0, 0.3, 64, 32), None),
+            (torus([0.0; 3], 1.0, 0.3, 64, 32), None),
         ] {
             let exact = exact.unwrap_or_else(|| mesh.signed_volume());
             let (g, wn) = build(&mesh, 48);

@@ -8,8 +8,12 @@
 //!   from proxies, hierarchy cuts with ratio vectors).
 //! - [`SphereSet`]: a validated view of an `SPHR` sphere-proxy asset (leaves, hierarchy, skin)
 //!   and its cut for a receiver cluster (SHEXP §6.3, eq. 36).
+//! - [`fiv`]: soft shadows from FIV occlusion tables (`FIVT`): irradiance cube lookup,
+//!   trilinear FIV lookup with inside flags, partial occluders, overlap correction,
+//!   self-shadowing (FIV §4.3).
 
 mod error;
+pub mod fiv;
 pub mod sh;
 pub mod shadows;
 pub mod sphere_set;

@@ -13,7 +13,6 @@ use crate::frame::Frame;
 use crate::hierarchy::{self, Hierarchy};
 use crate::lloyd::{self, IterationLog, LloydSettings};
 use crate::metrics::{self, MetricSettings, Metrics};
-use crate::minball::min_ball;
 use crate::octree;
 use crate::samples::Samples;
 use crate::skin::{self, SkinCoverage, SphereSkin};
@@ -268,9 +267,11 @@ fn fit_count(
                 return Err(SpheresError::TooManySpheres { count: n, elements: ne, grid: p.grid });
             }
             if n == 1 {
-                // one sphere: minimising V(S) − V(T) is minimising the radius (see minball)
-                let used: Vec<[f64; 3]> = ctx.samples.points.clone();
-                let s = min_ball(&used, p.seed);
+                // One sphere: V(S − T) = V(S) − V(T), so minimising E is minimising the radius,
+                // whose minimum is the minimal enclosing ball (Welzl, exact).
+                let pts = &ctx.samples.points;
+                let b = penumbra_geometry::min_enclosing_ball(pts).ok_or(SpheresError::EmptyMesh)?;
+                let s = Sphere::new(b.center, crate::sphere::bounding_radius(b.center, pts));
                 return Ok(RawFit {
                     spheres: vec![s],
                     assign: Some(vec![0; ne]),

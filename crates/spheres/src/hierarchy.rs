@@ -252,7 +252,7 @@ mod tests {
 
     #[test]
     fn bounding_sphere_of_points_matches_the_exact_minimal_ball() {
-        // points are balls of radius 0: compare with Welzl's exact ball (minball)
+        // points are balls of radius 0: compare with Welzl's exact ball
         let tet = [[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]];
         let balls: Vec<Sphere> = tet.iter().map(|&p| Sphere::new(p, 0.0)).collect();
         for start in [[0.4, -0.2, 0.3], [-0.2, -0.2, 0.2], [0.9, 0.9, 0.9]] {
@@ -262,7 +262,7 @@ mod tests {
         for case in 0..20u64 {
             let pts: Vec<[f64; 3]> =
                 (0..7).map(|i| std::array::from_fn(|k| unit_f64(hash4(11, case, i, k as u64)))).collect();
-            let exact = crate::minball::min_ball(&pts, 1);
+            let exact = penumbra_geometry::min_enclosing_ball(&pts).unwrap();
             let balls: Vec<Sphere> = pts.iter().map(|&p| Sphere::new(p, 0.0)).collect();
             let s = bounding_sphere_of(&balls, mean_center(&balls, &(0..7).collect::<Vec<_>>()));
             assert!(

@@ -22,7 +22,6 @@ pub mod frame;
 pub mod hierarchy;
 pub mod lloyd;
 pub mod metrics;
-pub mod minball;
 pub mod octree;
 pub mod powell;
 pub mod reference;

@@ -288,7 +288,7 @@ mod tests {
             check_linear_precision(&s, x);
         }
         // non-convex: a torus, points inside the tube and in the hole (outside the mesh)
-        let t = torus(1.0, 0.3, 24, 12);
+        let t = torus([0.0; 3], 1.0, 0.3, 24, 12);
         check_linear_precision(&t, [1.0, 0.0, 0.1]);
         check_linear_precision(&t, [0.0, 0.0, 0.0]);
         // on a face and at a vertex

@@ -6,7 +6,6 @@ use penumbra_geometry::{Scene, TriMesh};
 use penumbra_math::progress::NoProgress;
 use penumbra_math::rng::{hash4, unit_f64};
 use penumbra_spheres::fit::{FitParams, FitResult, Method, Target};
-use penumbra_spheres::minball::min_ball;
 use penumbra_spheres::sphere::{Sphere, from_f32};
 
 fn scene(mesh: TriMesh) -> Scene {
@@ -53,7 +52,7 @@ fn assert_bounding(mesh: &TriMesh, r: &FitResult) {
 
 #[test]
 fn lloyd_and_octree_fits_bound_the_surface() {
-    for mesh in [torus(1.0, 0.3, 32, 16), character(28), aabb_box([0.0; 3], [2.0, 1.0, 0.5])] {
+    for mesh in [torus([0.0; 3], 1.0, 0.3, 32, 16), character(28), aabb_box([0.0; 3], [2.0, 1.0, 0.5])] {
         for method in [Method::Lloyd, Method::Octree] {
             let r = run(&mesh, &params(12, method));
             assert_bounding(&mesh, &r);
@@ -76,7 +75,7 @@ fn one_sphere_is_the_minimal_enclosing_ball() {
     let r = run(&b, &params(1, Method::Lloyd));
     let s = from_f32(r.spheres[0]);
     assert!((s.radius - 14f64.sqrt() / 2.0).abs() < 1e-6, "{s:?}");
-    let w = min_ball(&b.positions, 9);
+    let w = penumbra_geometry::min_enclosing_ball(&b.positions).unwrap();
     assert!((w.radius - s.radius).abs() < 1e-6);
 }
 
@@ -164,7 +163,7 @@ fn lloyd_union_ratio_beats_the_octree_at_equal_count() {
 
 #[test]
 fn target_error_finds_a_count_meeting_it() {
-    let mesh = torus(1.0, 0.3, 24, 12);
+    let mesh = torus([0.0; 3], 1.0, 0.3, 24, 12);
     let mut p = params(1, Method::Lloyd);
     p.grid = 20;
     p.iterations = 12;

@@ -66,5 +66,5 @@ fn objective_matches_exact_monte_carlo() {
     // within 1 % of the sphere volume (beyond the Monte-Carlo noise) for spheres 2–20 grid
     // cells in radius
     check(&character(40), 48, 0.01);
-    check(&torus(1.0, 0.35, 48, 24), 48, 0.01);
+    check(&torus([0.0; 3], 1.0, 0.35, 48, 24), 48, 0.01);
 }

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// Stage names in execution order. Every configured entry of a stage is one work item;
 /// `--shard K/N` runs the items whose index (in this order) is K mod N.
-pub const STAGES: &[&str] = &["tables", "spheres", "mrt"];
+pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -160,6 +160,67 @@ fn run_spheres(
     })
 }
 
+fn run_fiv(
+    cfg: &penumbra_config::LoadedConfig,
+    index: usize,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    let Some(f) = cfg.config.fiv.get(index) else {
+        return Err(CliError::internal(anyhow!("fiv stage {index} selected but not configured")));
+    };
+    let name = format!("fiv[{index}]");
+    let mut specs = Vec::new();
+    for (key, spec) in [("mesh", &f.mesh), ("env", &f.env)] {
+        let resolved = super::fiv::resolve_spec(spec, |p| cfg.resolve(p));
+        if !resolved.starts_with("builtin:") && !Path::new(&resolved).is_file() {
+            return Err(CliError::input(anyhow!(
+                "{}: `{name}.{key}`: file {resolved} does not exist",
+                cfg.path.display()
+            )));
+        }
+        specs.push(resolved);
+    }
+    let up = match f.up {
+        Some(penumbra_config::UpAxis::Z) => penumbra_fiv::UpAxis::Z,
+        _ => penumbra_fiv::UpAxis::Y,
+    };
+    use penumbra_geometry::env::Rotation;
+    let rot = match f.env_rotate {
+        Some(penumbra_config::EnvRotate::X180) => Rotation::X180,
+        Some(penumbra_config::EnvRotate::Y180) => Rotation::Y180,
+        Some(penumbra_config::EnvRotate::Z180) => Rotation::Z180,
+        _ => Rotation::None,
+    };
+    let job = super::fiv::FivJob::new(
+        &specs[0],
+        &specs[1],
+        rot,
+        f.samples.unwrap_or([32, 17, 15]).map(|v| v as usize),
+        f.r_min.unwrap_or(1.0),
+        f.r_max.unwrap_or(8.0),
+        up,
+        f.cube_size.unwrap_or(32) as usize,
+        f.irradiance_size.unwrap_or(32) as usize,
+        f.half.unwrap_or(false),
+    )?;
+    let output = out_dir.join(f.output_name());
+    let key = super::fiv::cache_key(&job)?;
+    cached_or_bake(&name, "FIVT", &output, &key, force, || {
+        let o = super::fiv::bake_to(&job, penumbra_fiv::Shard::WHOLE, &output, mode)?;
+        let r = &o.report;
+        Ok(Baked {
+            bytes: r["bytes"].as_u64().unwrap_or(0),
+            seconds: o.seconds,
+            metrics: json!({
+                "samples": r["samples"], "rays_traced": r["rays_traced"], "rays_hit": r["rays_hit"],
+                "inside_samples": r["inside_samples"], "fiv_bytes": r["fiv_bytes"],
+            }),
+        })
+    })
+}
+
 fn run_mrt(
     cfg: &penumbra_config::LoadedConfig,
     out_dir: &Path,
@@ -191,6 +252,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         items.push(("tables", 0));
     }
     items.extend((0..cfg.config.spheres.len()).map(|i| ("spheres", i)));
+    items.extend((0..cfg.config.fiv.len()).map(|i| ("fiv", i)));
     if cfg.config.mrt.is_some() {
         items.push(("mrt", 0));
     }
@@ -210,7 +272,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
 
     let mut stages = Vec::new();
     for (item, &(name, index)) in items.iter().enumerate() {
-        let label = if name == "spheres" { format!("{name}[{index}]") } else { name.to_string() };
+        let label = if name == "spheres" || name == "fiv" { format!("{name}[{index}]") } else { name.to_string() };
         let skip = |status: &str| json!({"name": label, "status": status});
         if a.only.as_deref().is_some_and(|o| o != name) {
             stages.push(skip("skipped-by-only"));
@@ -225,6 +287,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         let r = match name {
             "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
             "spheres" => run_spheres(&cfg, index, &out_dir, a.force, mode)?,
+            "fiv" => run_fiv(&cfg, index, &out_dir, a.force, mode)?,
             "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };

@@ -1,10 +1,12 @@
 //! Command implementations.
 
 pub mod bake;
+pub mod fiv;
 pub mod inspect;
 pub mod mrt;
 pub mod spheres;
 pub mod tables;
+pub mod verify_fiv;
 pub mod verify_shadows;
 
 use crate::args::{Cli, Command};
@@ -22,7 +24,9 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Mrt(a) => mrt::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
+        Command::Fiv(a) => fiv::run(&a, cli.progress),
         Command::Verify(a) => match a.command {
+            crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
         },
         Command::Schema => {

@@ -37,6 +37,8 @@
 mod cube;
 mod latlong;
 mod load;
+pub mod procedural;
+mod rotate;
 
 pub use cube::{
     CubeFace, CubeMap, DEFAULT_FACE_SIZE, DEFAULT_GAUSS_POINTS, face_rect_solid_angle,
@@ -44,6 +46,7 @@ pub use cube::{
 };
 pub use latlong::{EnvMap, texel_direction, texel_solid_angle};
 pub use load::{EnvmapAttribute, load_env_map};
+pub use rotate::Rotation;
 
 /// Facts and warnings of an environment-map load, returned as data.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -1,0 +1,344 @@
+//! `penumbra fiv`: the FIV occlusion bake (FIV §4.2), and `penumbra fiv merge` for shards.
+
+use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivMergeArgs, UpArg};
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::{ensure_parent, hash_file};
+use crate::progress::{ProgressMode, Reporter};
+use anyhow::{Context, anyhow};
+use penumbra_asset::AssetFile;
+use penumbra_fiv::asset::{AssetInputs, read_meta};
+use penumbra_fiv::{FivParams, Lighting, Occluder, Shard, ShellLayout, Storage, UpAxis};
+use penumbra_geometry::env::Rotation;
+use penumbra_geometry::{CubeMap, EnvMap, TriMesh};
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Procedural occluders accepted as `--mesh builtin:NAME`.
+pub const BUILTIN_MESHES: &[&str] = &["builtin:torus", "builtin:sphere"];
+/// Procedural environments accepted as `--env builtin:NAME`.
+pub const BUILTIN_ENVS: &[&str] = &["builtin:area-lights"];
+
+/// A loaded input with its description for `meta.inputs` and the cache key.
+#[derive(Debug)]
+pub struct Input<T> {
+    /// The data.
+    pub data: T,
+    /// File name (no directories) or builtin name.
+    pub name: String,
+    /// blake3 of the file bytes, or of the builtin's name and the tool version.
+    pub blake3: String,
+}
+
+fn builtin_hash(name: &str) -> String {
+    // the definition is code: its name and the tool version identify it
+    blake3::hash(format!("{name}@{}", env!("CARGO_PKG_VERSION")).as_bytes()).to_hex().to_string()
+}
+
+/// Loads an occluder mesh from a file or a `builtin:` name.
+pub fn load_occluder(spec: &str) -> Result<Input<TriMesh>, CliError> {
+    if let Some(shape) = spec.strip_prefix("builtin:") {
+        let mesh = match shape {
+            // a torus lying in the XZ plane: a ring shadow with a bright centre
+            "torus" => penumbra_geometry::procedural::torus([0.0; 3], 1.0, 0.35, 64, 32),
+            "sphere" => penumbra_geometry::procedural::uv_sphere([0.0; 3], 1.0, 32, 64),
+            _ => {
+                return Err(CliError::input(anyhow!(
+                    "--mesh {spec:?}: unknown procedural occluder (known: {})",
+                    BUILTIN_MESHES.join(", ")
+                )));
+            }
+        };
+        return Ok(Input { data: mesh, name: spec.to_string(), blake3: builtin_hash(spec) });
+    }
+    let path = Path::new(spec);
+    let (scene, _report) =
+        penumbra_geometry::load_mesh(path).with_context(|| format!("cannot load occluder mesh {}", path.display()))?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    Ok(Input { data: scene.mesh, name, blake3: hash_file(path)? })
+}
+
+fn rotate(env: EnvMap, r: Rotation, spec: &str) -> Result<EnvMap, CliError> {
+    env.rotated(r).ok_or_else(|| {
+        CliError::input(anyhow!("--env-rotate {}: {spec} has an odd width, so it is not a texel permutation", r.name()))
+    })
+}
+
+/// Loads an environment (lat-long file or `builtin:`), rotates it and resamples it to a
+/// cube map.
+pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Input<CubeMap>, CliError> {
+    if let Some(name) = spec.strip_prefix("builtin:") {
+        let env = match name {
+            "area-lights" => penumbra_geometry::env::procedural::area_lights(512, 256),
+            _ => {
+                return Err(CliError::input(anyhow!(
+                    "--env {spec:?}: unknown procedural environment (known: {})",
+                    BUILTIN_ENVS.join(", ")
+                )));
+            }
+        };
+        let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
+        return Ok(Input { data: cube, name: spec.to_string(), blake3: builtin_hash(spec) });
+    }
+    let path = Path::new(spec);
+    let (env, _report) = penumbra_geometry::load_env_map(path)
+        .with_context(|| format!("cannot load environment map {}", path.display()))?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
+    Ok(Input { data: cube, name, blake3: hash_file(path)? })
+}
+
+/// Parses `AxPxK`.
+pub fn parse_samples(s: &str) -> Result<[usize; 3], CliError> {
+    let bad = || CliError::input(anyhow!("--samples {s:?}: expected AxPxK, e.g. 128x65x30"));
+    let parts: Vec<&str> = s.split(['x', 'X']).collect();
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut out = [0usize; 3];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = p.trim().parse().map_err(|_| bad())?;
+    }
+    Ok(out)
+}
+
+/// Everything a FIV bake needs besides its inputs.
+#[derive(Debug, Clone)]
+pub struct FivJob {
+    /// Mesh spec (path or builtin).
+    pub mesh: String,
+    /// Environment spec (path or builtin).
+    pub env: String,
+    /// Rotation applied to the environment.
+    pub env_rotate: Rotation,
+    /// Bake parameters.
+    pub params: FivParams,
+    /// Environment cube face size.
+    pub cube_size: usize,
+    /// `fiv` storage.
+    pub storage: Storage,
+}
+
+impl FivJob {
+    /// Builds and validates a job.
+    pub fn new(
+        mesh: &str,
+        env: &str,
+        env_rotate: Rotation,
+        samples: [usize; 3],
+        r_min: f64,
+        r_max: f64,
+        up: UpAxis,
+        cube_size: usize,
+        irradiance_size: usize,
+        half: bool,
+    ) -> Result<Self, CliError> {
+        let layout = ShellLayout { azimuth: samples[0], polar: samples[1], radial: samples[2], r_min, r_max, up };
+        let params = FivParams { layout, irradiance_size };
+        params.validate().map_err(CliError::input)?;
+        if !penumbra_fiv::bake::CUBE_SIZE.contains(&cube_size) {
+            return Err(CliError::input(anyhow!("cube size {cube_size} is out of range (allowed: 1..=512)")));
+        }
+        Ok(Self {
+            mesh: mesh.to_string(),
+            env: env.to_string(),
+            env_rotate,
+            params,
+            cube_size,
+            storage: if half { Storage::F16 } else { Storage::F32 },
+        })
+    }
+}
+
+/// Content hash of a mesh or environment spec: the file's blake3, or the builtin's.
+pub fn spec_hash(spec: &str) -> Result<String, CliError> {
+    if spec.starts_with("builtin:") { Ok(builtin_hash(spec)) } else { Ok(hash_file(Path::new(spec))?) }
+}
+
+/// Normalised parameters and input hashes, hashed for the cache key (reads the input files
+/// to hash them, but does not parse them).
+pub fn cache_key(job: &FivJob) -> Result<String, CliError> {
+    let l = job.params.layout;
+    let v = json!({
+        "tool": env!("CARGO_PKG_VERSION"),
+        "stage": "fiv",
+        "samples": [l.azimuth, l.polar, l.radial],
+        "r_min": l.r_min,
+        "r_max": l.r_max,
+        "up": l.up.name(),
+        "cube_size": job.cube_size,
+        "irradiance_size": job.params.irradiance_size,
+        "storage": job.storage,
+        "mesh": spec_hash(&job.mesh)?,
+        "env": spec_hash(&job.env)?,
+        "env_rotate": job.env_rotate.name(),
+    });
+    Ok(blake3::hash(v.to_string().as_bytes()).to_hex().to_string())
+}
+
+/// What a FIV bake produced.
+#[derive(Debug)]
+pub struct FivOutcome {
+    /// The `--json` object (without `seconds`).
+    pub report: Value,
+    /// Wall time.
+    pub seconds: f64,
+}
+
+/// Bakes (one shard of) a job and writes the asset atomically.
+pub fn bake_to(job: &FivJob, shard: Shard, output: &Path, mode: ProgressMode) -> Result<FivOutcome, CliError> {
+    let start = Instant::now();
+    let key = cache_key(job)?;
+    let mesh = load_occluder(&job.mesh)?;
+    let env = load_env(&job.env, job.env_rotate, job.cube_size)?;
+    let occ =
+        Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", job.mesh)))?;
+    let lighting = Lighting::new(env.data);
+    let reporter = Reporter::new("fiv", mode);
+    let b = penumbra_fiv::bake(&occ, &lighting, &job.params, shard, &reporter).map_err(CliError::input)?;
+    reporter.finish();
+    let inputs = json!({
+        "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},
+        "env": {"name": env.name, "blake3": env.blake3, "rotate": job.env_rotate.name()},
+    });
+    let ai = AssetInputs {
+        inputs,
+        cache_key: Some(key.clone()),
+        storage: job.storage,
+        env_cube: lighting.cube().texels(),
+        mesh: &mesh.data,
+    };
+    let asset = penumbra_fiv::to_asset(&b, &ai).map_err(CliError::input)?;
+    ensure_parent(output)?;
+    let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
+    let meta = penumbra_fiv::asset::meta_of(&b, &ai);
+    let l = job.params.layout;
+    let f = occ.frame();
+    let report = json!({
+        "samples": [l.azimuth, l.polar, l.radial],
+        "bytes": bytes,
+        "fiv_bytes": meta.metrics.fiv_bytes,
+        "rays_traced": b.stats.rays_traced,
+        "rays_hit": b.stats.rays_hit,
+        "rays_certified": b.stats.rays_certified,
+        "inside_samples": b.stats.inside_samples,
+        "center": f.center,
+        "radius": f.radius,
+        "cube_size": job.cube_size,
+        "storage": job.storage,
+        "shard": meta.shard,
+        "cache_key": key,
+        "output": output.display().to_string(),
+    });
+    Ok(FivOutcome { report, seconds: start.elapsed().as_secs_f64() })
+}
+
+fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    let (Some(mesh), Some(env), Some(output)) = (&a.mesh, &a.env, &a.output) else {
+        return Err(CliError::input(anyhow!("--mesh, --env and -o are required")));
+    };
+    let up = match a.up {
+        UpArg::Y => UpAxis::Y,
+        UpArg::Z => UpAxis::Z,
+    };
+    let rot = match a.env_rotate {
+        EnvRotateArg::None => Rotation::None,
+        EnvRotateArg::X180 => Rotation::X180,
+        EnvRotateArg::Y180 => Rotation::Y180,
+        EnvRotateArg::Z180 => Rotation::Z180,
+    };
+    let job = FivJob::new(
+        mesh,
+        env,
+        rot,
+        parse_samples(&a.samples)?,
+        a.r_min,
+        a.r_max,
+        up,
+        a.cube_size as usize,
+        a.irradiance_size as usize,
+        a.half,
+    )?;
+    let shard = match &a.shard {
+        Some(s) => {
+            let (k, n) = super::bake::parse_shard(s)?;
+            let sh = Shard { index: k, count: n };
+            sh.validate(job.params.layout.azimuth).map_err(|e| CliError::input(anyhow!("--shard: {e}")))?;
+            sh
+        }
+        None => Shard::WHOLE,
+    };
+    let out = bake_to(&job, shard, output, mode)?;
+    let mut v = out.report;
+    v["seconds"] = json!(out.seconds);
+    if a.json {
+        print_json(&v);
+    } else {
+        #[allow(clippy::print_stderr)]
+        {
+            eprintln!(
+                "wrote {} ({} bytes, FIV data {} bytes) in {:.2} s\n  samples {}  rays {} ({} hit)  inside samples {}  R = {:.6}",
+                output.display(),
+                v["bytes"],
+                v["fiv_bytes"],
+                out.seconds,
+                a.samples,
+                v["rays_traced"],
+                v["rays_hit"],
+                v["inside_samples"],
+                v["radius"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
+    }
+    Ok(ExitCode::Ok)
+}
+
+fn run_merge(a: &FivMergeArgs) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let files: Vec<AssetFile> = a
+        .shards
+        .iter()
+        .map(|p| AssetFile::open(p).with_context(|| format!("cannot read shard {}", p.display())))
+        .collect::<Result<_, _>>()?;
+    for (f, p) in files.iter().zip(&a.shards) {
+        read_meta(&f.asset()).map_err(|e| CliError::input(anyhow!("{}: {e}", p.display())))?;
+    }
+    let assets: Vec<_> = files.iter().map(|f| f.asset()).collect();
+    let merged = penumbra_fiv::merge(&assets).map_err(CliError::input)?;
+    ensure_parent(&a.output)?;
+    let bytes = merged.write_atomic(&a.output).with_context(|| format!("cannot write {}", a.output.display()))?;
+    let out = AssetFile::open(&a.output).with_context(|| format!("cannot read back {}", a.output.display()))?;
+    let meta = read_meta(&out.asset()).map_err(CliError::internal)?;
+    let v = json!({
+        "output": a.output.display().to_string(),
+        "bytes": bytes,
+        "shards": a.shards.len(),
+        "samples": meta.params.samples,
+        "rays_traced": meta.metrics.rays_traced,
+        "inside_samples": meta.metrics.inside_samples,
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    if a.json {
+        print_json(&v);
+    } else {
+        #[allow(clippy::print_stderr)]
+        {
+            eprintln!("merged {} shards into {} ({bytes} bytes)", a.shards.len(), a.output.display());
+        }
+    }
+    Ok(ExitCode::Ok)
+}
+
+/// Runs `penumbra fiv` / `penumbra fiv merge`.
+pub fn run(a: &FivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    match &a.command {
+        Some(FivCommand::Merge(m)) => run_merge(m),
+        None => run_bake(&a.bake, mode),
+    }
+}
+
+/// Resolves a config path spec: builtins stay as they are, files are resolved.
+pub fn resolve_spec(spec: &str, resolve: impl Fn(&str) -> PathBuf) -> String {
+    if spec.starts_with("builtin:") { spec.to_string() } else { resolve(spec).display().to_string() }
+}

@@ -1,0 +1,382 @@
+//! The FIV bake (FIV §4.2): the occluded-environment FIV at every shell sample, inside
+//! flags, the irradiance cube map and the environment FIV.
+//!
+//! # Visibility
+//! For the sample at `p`, texel `t` is occluded when the ray `p + s·ω_t`, `s ≥ 0`, hits the
+//! occluder (the paper's binary cube mask, Fig. 5); the sample's FIV is
+//! `Σ_{t occluded} L_t ω_t dΩ_t` (FIV eq. 9 on the occluded environment), per channel.
+//! Rays are only cast toward texels that can be occluded: a sample at distance `ρ > R` from
+//! the ball centre sees the ball inside the cone of half-angle `α = asin(R/ρ)` around the
+//! direction to the centre, so a tile of texels whose bounding cone (half-angle β) lies
+//! farther than `α + β` from that axis is skipped whole, and a texel of a surviving tile is
+//! traced only when its direction is within `α` of the axis (with a 1e-9 margin, so the
+//! skipping is exact: a skipped ray cannot touch the ball). Samples on or inside the ball
+//! trace every texel. Ray casting is exact ([`MeshBvh::any_hit`]: watertight f64 triangle
+//! test, first hit ends the ray). Before a ray is cast, the per-texel silhouette bitmaps of
+//! [`crate::silhouette`] skip rays whose line certainly misses the mesh and accept, without
+//! a ray, rays that certainly hit it ([`crate::interior`]); both are proofs, so the mask —
+//! and every bit of the result — is the one that tracing every ray gives.
+//!
+//! # Inside flags
+//! A sample on or inside the ball (`ρ ≤ R`) is flagged inside when the generalized winding
+//! number of the mesh is ≥ ½ there (robust for open meshes such as the scanned bunny). The
+//! runtime drops flagged samples from its interpolation (FIV §4.3.2), so their FIV is not
+//! computed: it is stored as 0 and no ray is cast.
+//!
+//! # Determinism
+//! Every sample is summed sequentially in a fixed texel order (tile by tile); samples are
+//! independent and written to fixed slots, so the output is the same for any thread count,
+//! and a shard computes exactly the bits a whole bake computes for its samples.
+
+use crate::error::FivError;
+use crate::layout::{Frame, Shard, ShellLayout};
+use crate::lighting::Lighting;
+use crate::silhouette::{Class, Silhouettes};
+use penumbra_geometry::{MeshBvh, TraversalStack, TriMesh, WindingNumber, min_enclosing_ball};
+use penumbra_math::progress::Progress;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Allowed cube face sizes of the environment.
+pub const CUBE_SIZE: core::ops::RangeInclusive<usize> = 1..=512;
+/// Default cube face size (the paper's 6×32×32).
+pub const DEFAULT_CUBE_SIZE: usize = 32;
+/// Allowed irradiance cube face sizes.
+pub const IRRADIANCE_SIZE: core::ops::RangeInclusive<usize> = 1..=256;
+/// Default irradiance cube face size.
+pub const DEFAULT_IRRADIANCE_SIZE: usize = 32;
+
+/// Parameters of a FIV bake.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FivParams {
+    /// Shell sampling.
+    pub layout: ShellLayout,
+    /// Face size of the irradiance cube map.
+    pub irradiance_size: usize,
+}
+
+impl FivParams {
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<(), FivError> {
+        self.layout.validate().map_err(FivError::Layout)?;
+        if !IRRADIANCE_SIZE.contains(&self.irradiance_size) {
+            return Err(FivError::Parameter(format!(
+                "irradiance cube size {} is out of range (allowed: {}..={})",
+                self.irradiance_size,
+                IRRADIANCE_SIZE.start(),
+                IRRADIANCE_SIZE.end()
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// An occluder ready for the bake: its mesh, BVH, winding number and frame.
+#[derive(Debug)]
+pub struct Occluder {
+    mesh: TriMesh,
+    bvh: MeshBvh,
+    winding: WindingNumber,
+    frame: Frame,
+}
+
+impl Occluder {
+    /// Validates the mesh and computes the frame: the minimum enclosing ball of the vertices
+    /// that triangles reference (unreferenced vertices are ignored).
+    pub fn new(mesh: TriMesh) -> Result<Self, FivError> {
+        mesh.validate().map_err(|e| FivError::Mesh(e.to_string()))?;
+        let mut used = vec![false; mesh.positions.len()];
+        for t in &mesh.indices {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        let pts: Vec<[f64; 3]> = mesh.positions.iter().zip(&used).filter(|(_, u)| **u).map(|(p, _)| *p).collect();
+        let ball = min_enclosing_ball(&pts).ok_or_else(|| FivError::Mesh("no finite vertices".into()))?;
+        if !(ball.radius > 0.0 && ball.radius.is_finite()) {
+            return Err(FivError::Mesh(format!("degenerate: its bounding radius is {}", ball.radius)));
+        }
+        let bvh = MeshBvh::build(&mesh).map_err(|e| FivError::Mesh(e.to_string()))?;
+        let winding = WindingNumber::new(&mesh);
+        Ok(Self { mesh, bvh, winding, frame: Frame { center: ball.center, radius: ball.radius } })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &TriMesh {
+        &self.mesh
+    }
+
+    /// The BVH.
+    pub fn bvh(&self) -> &MeshBvh {
+        &self.bvh
+    }
+
+    /// The frame (minimum enclosing ball).
+    pub fn frame(&self) -> Frame {
+        self.frame
+    }
+
+    /// Whether `p` is inside the mesh (generalized winding number ≥ ½).
+    pub fn is_inside(&self, p: [f64; 3]) -> bool {
+        self.winding.is_inside(p)
+    }
+}
+
+/// Counters of a bake (deterministic; they add up over shards).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct BakeStats {
+    /// Rays cast.
+    pub rays_traced: u64,
+    /// Texels found occluded: rays cast that hit plus hits certified without a ray.
+    pub rays_hit: u64,
+    /// Hits certified by the interior balls without casting a ray.
+    pub rays_certified: u64,
+    /// Samples flagged inside.
+    pub inside_samples: u64,
+}
+
+/// The result of a bake (or of one shard).
+#[derive(Debug, Clone)]
+pub struct FivBake {
+    /// Parameters.
+    pub params: FivParams,
+    /// Occluder frame.
+    pub frame: Frame,
+    /// Cube face size of the environment.
+    pub cube_size: usize,
+    /// The shard baked ([`Shard::WHOLE`] for a whole bake).
+    pub shard: Shard,
+    /// Occluded-environment FIVs, `[a1 − a0, P, K, 3 (rgb), 3 (xyz)]` for the shard's
+    /// azimuth slab `[a0, a1)`.
+    pub fiv: Vec<f32>,
+    /// Inside flags (1 = inside), `[a1 − a0, P, K]`.
+    pub inside: Vec<u8>,
+    /// Irradiance cube, `[6, S, S, 3]`.
+    pub irradiance: Vec<f32>,
+    /// Environment FIV `[rgb][xyz]`.
+    pub env_fiv: [[f32; 3]; 3],
+    /// Counters.
+    pub stats: BakeStats,
+}
+
+#[inline]
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Whether building the silhouette bitmaps pays off for `rows` (azimuth, polar) rows of the
+/// layout (always the whole bake's rows, so every shard decides alike and the ray counters
+/// of shards add up to the single run's): the rays the bounding cones let through
+/// (estimated from the cones' solid angles) against the building work (one stamp per
+/// cluster and bitmap at ~2/3 of a ray, plus ~5M rays' worth for the interior balls;
+/// measured on the bunnies). Only the speed depends on this choice, never the result.
+fn worth_culling(occ: &Occluder, lighting: &Lighting, l: &ShellLayout, rows: usize) -> bool {
+    let mut cone_rays = 0.0;
+    for k in 0..l.radial {
+        let r = l.rho_over_r(k);
+        let frac = if r <= 1.0 { 1.0 } else { 0.5 * (1.0 - (1.0 - 1.0 / (r * r)).sqrt()) };
+        cone_rays += frac * (rows * lighting.texel_count()) as f64;
+    }
+    let stamps = (lighting.texel_count() / 2) as f64 * (occ.mesh().indices.len() as f64 / 16.0).ceil();
+    cone_rays > 0.67 * stamps + 5.0e6
+}
+
+/// Traces the occluded-environment FIV of sample positions around one occluder.
+#[derive(Debug)]
+pub struct FivTracer<'a> {
+    occ: &'a Occluder,
+    lighting: &'a Lighting,
+    sil: Option<Silhouettes>,
+}
+
+impl<'a> FivTracer<'a> {
+    /// A tracer; `cull` builds the silhouette bitmaps ([`crate::silhouette`]) that skip rays
+    /// which certainly miss (the result is the same either way, only faster).
+    pub fn new(occ: &'a Occluder, lighting: &'a Lighting, cull: bool) -> Self {
+        let sil = if cull { Silhouettes::build(occ, lighting) } else { None };
+        Self { occ, lighting, sil }
+    }
+
+    /// Whether silhouette culling is active.
+    pub fn culls(&self) -> bool {
+        self.sil.is_some()
+    }
+
+    /// The occluded-environment FIV seen from `p`, with its counters (`inside_samples` 0).
+    pub fn fiv(&self, p: [f64; 3]) -> ([[f64; 3]; 3], BakeStats) {
+        self.fiv_with(p, &mut self.occ.bvh.traversal_stack())
+    }
+
+    /// [`FivTracer::fiv`] with a caller-held traversal stack (no allocation).
+    pub fn fiv_with(&self, p: [f64; 3], stack: &mut TraversalStack) -> ([[f64; 3]; 3], BakeStats) {
+        let (occ, lighting) = (self.occ, self.lighting);
+        let f = occ.frame;
+        let to_c = [f.center[0] - p[0], f.center[1] - p[1], f.center[2] - p[2]];
+        let rho = dot(to_c, to_c).sqrt();
+        let mut acc = [[0.0f64; 3]; 3];
+        let (mut rays, mut hits, mut certified) = (0u64, 0u64, 0u64);
+        let outside = rho >= f.radius;
+        // A ray heading away from the centre's side (d·(c − p) ≤ 0) stays within
+        // √(R² − ρ²) of p while inside the ball (0 from on or outside it); when no mesh point
+        // is that close, it cannot hit. Decided once per sample near the ball's surface (the
+        // innermost shell at ρ = R, whose rounded positions fall on either side of it).
+        let away_misses = rho >= f.radius * (1.0 - 1e-6) && {
+            let reach = (f.radius * f.radius - rho * rho).max(0.0).sqrt();
+            occ.bvh.closest_point_within(p, reach).is_none()
+        };
+        let mut trace = |t: usize| {
+            let d = lighting.direction(t);
+            let towards = dot(d, to_c) > 0.0;
+            if away_misses && !towards {
+                return;
+            }
+            // from on or outside the ball, a ray heading toward its centre side has the ball's
+            // whole chord ahead of it: only then can a hit be certified
+            let ahead = outside && towards;
+            let hit = match self.sil.as_ref().map_or(Class::Trace, |s| s.classify(t, p, ahead)) {
+                Class::Miss => false,
+                Class::Hit => {
+                    certified += 1;
+                    true
+                }
+                Class::Trace => {
+                    rays += 1;
+                    occ.bvh.any_hit_prepared(p, lighting.prepared(t), 0.0, f64::INFINITY, stack)
+                }
+            };
+            if hit {
+                hits += 1;
+                let w = lighting.weight(t);
+                for c in 0..3 {
+                    for x in 0..3 {
+                        acc[c][x] += w[c] * d[x];
+                    }
+                }
+            }
+        };
+        if rho <= f.radius {
+            for &t in &lighting.tile_texels {
+                trace(t as usize);
+            }
+        } else {
+            let axis = to_c.map(|v| v / rho);
+            let sin_a = f.radius / rho;
+            let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
+            const MARGIN: f64 = 1e-9;
+            for tile in &lighting.tiles {
+                // angle(axis, tile axis) ≤ α + β  ⟺  cos ≥ cos(α + β) (α + β < π here)
+                let cos_ab = cos_a * tile.cos_b - sin_a * tile.sin_b;
+                if dot(axis, tile.axis) < cos_ab - MARGIN {
+                    continue;
+                }
+                for &t in &lighting.tile_texels[tile.start as usize..tile.end as usize] {
+                    if dot(axis, lighting.direction(t as usize)) >= cos_a - MARGIN {
+                        trace(t as usize);
+                    }
+                }
+            }
+        }
+        (acc, BakeStats { rays_traced: rays, rays_hit: hits, rays_certified: certified, inside_samples: 0 })
+    }
+}
+
+/// Whether to build the silhouette bitmaps ([`crate::silhouette`]); only the speed and the
+/// `rays_traced`/`rays_certified` counters depend on it, never the FIVs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Culling {
+    /// When the bake is large enough to pay for them (the default).
+    #[default]
+    Auto,
+    /// Always.
+    Always,
+    /// Never: the bounding cone alone (for benchmarks and comparisons).
+    Never,
+}
+
+/// Bakes the samples of `shard` (all of them for [`Shard::WHOLE`]), parallel over
+/// (azimuth, polar) rows; `progress` is called once per row with stage `"fiv"`.
+pub fn bake(
+    occ: &Occluder,
+    lighting: &Lighting,
+    params: &FivParams,
+    shard: Shard,
+    progress: &dyn Progress,
+) -> Result<FivBake, FivError> {
+    bake_with(occ, lighting, params, shard, progress, Culling::Auto)
+}
+
+/// [`bake`] with an explicit [`Culling`] choice.
+pub fn bake_with(
+    occ: &Occluder,
+    lighting: &Lighting,
+    params: &FivParams,
+    shard: Shard,
+    progress: &dyn Progress,
+    culling: Culling,
+) -> Result<FivBake, FivError> {
+    params.validate()?;
+    let l = params.layout;
+    shard.validate(l.azimuth).map_err(FivError::Shard)?;
+    let range = shard.azimuth_range(l.azimuth);
+    let rows = range.len() * l.polar;
+    let k = l.radial;
+    let frame = occ.frame;
+    let mut fiv = vec![0.0f32; rows * k * 9];
+    let mut inside = vec![0u8; rows * k];
+    let cull = match culling {
+        Culling::Auto => worth_culling(occ, lighting, &l, l.azimuth * l.polar),
+        Culling::Always => true,
+        Culling::Never => false,
+    };
+    let tracer = FivTracer::new(occ, lighting, cull);
+    let done = AtomicU64::new(0);
+    let (rays, hits, cert, ins) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
+    progress.update("fiv", 0, rows as u64);
+    fiv.par_chunks_mut(k * 9).zip(inside.par_chunks_mut(k)).enumerate().for_each(|(row, (out, flags))| {
+        let i = range.start + row / l.polar;
+        let j = row % l.polar;
+        let (mut r, mut h, mut ce, mut n_in) = (0u64, 0u64, 0u64, 0u64);
+        let mut stack = occ.bvh.traversal_stack();
+        for kk in 0..k {
+            let p = l.position(&frame, i, j, kk);
+            if l.rho_over_r(kk) <= 1.0 + 1e-9 && occ.is_inside(p) {
+                flags[kk] = 1;
+                n_in += 1;
+                continue;
+            }
+            let (v, st) = tracer.fiv_with(p, &mut stack);
+            r += st.rays_traced;
+            h += st.rays_hit;
+            ce += st.rays_certified;
+            for c in 0..3 {
+                for x in 0..3 {
+                    out[kk * 9 + c * 3 + x] = v[c][x] as f32;
+                }
+            }
+        }
+        rays.fetch_add(r, Ordering::Relaxed);
+        hits.fetch_add(h, Ordering::Relaxed);
+        cert.fetch_add(ce, Ordering::Relaxed);
+        ins.fetch_add(n_in, Ordering::Relaxed);
+        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+        progress.update("fiv", d, rows as u64);
+    });
+    let irr = lighting.irradiance_cube(params.irradiance_size);
+    let env = lighting.env_fiv();
+    Ok(FivBake {
+        params: *params,
+        frame,
+        cube_size: lighting.cube().size(),
+        shard,
+        fiv,
+        inside,
+        irradiance: irr.iter().flat_map(|v| v.map(|x| x as f32)).collect(),
+        env_fiv: env.map(|r| r.map(|x| x as f32)),
+        stats: BakeStats {
+            rays_traced: rays.into_inner(),
+            rays_hit: hits.into_inner(),
+            rays_certified: cert.into_inner(),
+            inside_samples: ins.into_inner(),
+        },
+    })
+}
