@@ -11,6 +11,7 @@ mod runtime;
 mod shadows;
 mod spheres;
 mod tables;
+mod verify_shadows;
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};

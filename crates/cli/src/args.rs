@@ -38,6 +38,8 @@ pub enum Command {
     Fiv(FivArgs),
     /// Measure an asset's accuracy against the brute-force reference.
     Verify(VerifyArgs),
+    /// Run one bake over a grid of its knobs and plot error against cost.
+    Sweep(SweepArgs),
     /// Print the JSON Schema of the bake config.
     Schema,
 }
@@ -354,4 +356,19 @@ pub struct VerifyFivArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `penumbra sweep`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// What to sweep.
+    #[command(subcommand)]
+    pub command: SweepCommand,
+}
+
+/// Subcommands of `penumbra sweep`.
+#[derive(Debug, Subcommand)]
+pub enum SweepCommand {
+    /// Sphere-proxy shadows over sphere count × SH order × exponential.
+    Shadows(crate::commands::sweep_shadows::SweepShadowsArgs),
 }

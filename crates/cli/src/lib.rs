@@ -12,5 +12,6 @@ pub mod exit;
 pub mod fsutil;
 pub mod png;
 pub mod progress;
+pub mod svgplot;
 
 pub use exit::{CliError, ExitCode};

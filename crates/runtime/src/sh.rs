@@ -61,6 +61,44 @@ impl ShBasis {
         self.visit(dir, |i, l, v| f[i] += w[l] * v);
     }
 
+    /// [`ShBasis::add_zonal`] for a compile-time order `N` (`N2 = N²`): the loops unroll and
+    /// the bounds checks vanish, which the per-receiver runtime needs (order = `self.order()`
+    /// is the caller's responsibility).
+    #[inline(always)]
+    pub(crate) fn add_zonal_n<const N: usize, const N2: usize>(&self, dir: [f32; 3], w: &[f32; N], f: &mut [f32; N2]) {
+        let [x, y, z] = dir;
+        let (mut c, mut s) = (1.0f32, 0.0f32);
+        let mut q_mm = 1.0f32;
+        for m in 0..N {
+            if m > 0 {
+                let (c2, s2) = (c * x - s * y, c * y + s * x);
+                c = c2;
+                s = s2;
+                q_mm *= -((2 * m - 1) as f32);
+            }
+            let mut q_prev = 0.0f32;
+            let mut q = q_mm;
+            for l in m..N {
+                if l == m + 1 {
+                    q_prev = q;
+                    q = z * (2 * m + 1) as f32 * q_mm;
+                } else if l > m + 1 {
+                    let next = self.ra[l * MAX_ORDER + m] * z * q - self.rb[l * MAX_ORDER + m] * q_prev;
+                    q_prev = q;
+                    q = next;
+                }
+                let kq = w[l] * self.k[l * MAX_ORDER + m] * q;
+                let base = l * (l + 1);
+                if m == 0 {
+                    f[base] += kq;
+                } else {
+                    f[base + m] += kq * c;
+                    f[base - m] += kq * s;
+                }
+            }
+        }
+    }
+
     /// Calls `sink(index, band, y)` for every basis function at `dir`.
     #[inline(always)]
     fn visit(&self, dir: [f32; 3], mut sink: impl FnMut(usize, usize, f32)) {

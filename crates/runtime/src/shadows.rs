@@ -180,20 +180,55 @@ impl<'a> ShadowEvaluator<'a> {
     /// Accumulates the log visibility of `spheres` at `(p, n)` into `f` (`order²`
     /// entries, zeroed first).
     pub fn accumulate_log(&self, p: [f32; 3], n: [f32; 3], spheres: &[Sphere], f: &mut [f32]) {
-        let n2 = self.order * self.order;
-        f[..n2].iter_mut().for_each(|v| *v = 0.0);
-        let mut zh = [0.0f32; MAX_ORDER];
-        for &s0 in spheres {
-            let s = if self.options.self_shadow_rules {
-                match replace(s0, p, n) {
-                    Some(s) => s,
-                    None => continue,
-                }
-            } else {
-                s0
-            };
-            self.add_sphere_log(p, s, 1.0, None, &mut zh, f);
+        let get = |i: usize| (spheres[i], None);
+        match self.order {
+            2 => self.accumulate_n::<2, 4>(p, n, spheres.len(), get, f),
+            3 => self.accumulate_n::<3, 9>(p, n, spheres.len(), get, f),
+            4 => self.accumulate_n::<4, 16>(p, n, spheres.len(), get, f),
+            5 => self.accumulate_n::<5, 25>(p, n, spheres.len(), get, f),
+            6 => self.accumulate_n::<6, 36>(p, n, spheres.len(), get, f),
+            7 => self.accumulate_n::<7, 49>(p, n, spheres.len(), get, f),
+            _ => self.accumulate_n::<8, 64>(p, n, spheres.len(), get, f),
         }
+    }
+
+    /// The accumulation loop for a compile-time order `N` (`N2 = N²`): `get(i)` is blocker `i`
+    /// with its optional per-band ratio vector (SHEXP eq. 38).
+    #[inline(always)]
+    fn accumulate_n<'w, const N: usize, const N2: usize>(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        count: usize,
+        get: impl Fn(usize) -> (Sphere, Option<&'w [f32; MAX_ORDER]>),
+        f: &mut [f32],
+    ) {
+        let mut acc = [0.0f32; N2];
+        let alpha_cut = self.tables.alpha_cut();
+        let basis = self.tables.basis();
+        for i in 0..count {
+            let (s0, w) = get(i);
+            let Some(s) = self.effective(s0, p, n) else { continue };
+            let v = sub(s.center, p);
+            let d2 = dot(v, v);
+            if d2.is_nan() || d2 <= 0.0 || s.radius <= 0.0 {
+                continue;
+            }
+            let d = d2.sqrt();
+            let alpha = (s.radius / d).min(1.0);
+            if alpha <= alpha_cut {
+                continue; // outside the sphere of influence (smooth clamp, IBPA §4.1)
+            }
+            let mut zh = self.tables.proxy_log_occlusion_n::<N>(alpha);
+            if let Some(w) = w {
+                for l in 0..N {
+                    zh[l] *= w[l];
+                }
+            }
+            let inv = 1.0 / d;
+            basis.add_zonal_n::<N, N2>([v[0] * inv, v[1] * inv, v[2] * inv], &zh, &mut acc);
+        }
+        f[..N2].copy_from_slice(&acc);
     }
 
     /// Adds one sphere's log visibility, optionally scaled per band by `w` (SHEXP eq. 38).
@@ -383,13 +418,16 @@ impl ShadowEvaluator<'_> {
     /// Accumulates a receiver's log visibility from its cluster's blockers (SHEXP eq. 38:
     /// each sphere's zonal log visibility scaled per band by its ratio vector).
     pub fn accumulate_log_blockers(&self, p: [f32; 3], n: [f32; 3], blockers: &[CutBlocker], f: &mut [f32]) {
-        let n2 = self.order * self.order;
-        f[..n2].iter_mut().for_each(|v| *v = 0.0);
-        let mut zh = [0.0f32; MAX_ORDER];
-        for b in blockers {
-            if let Some(s) = self.effective(b.sphere, p, n) {
-                self.add_sphere_log(p, s, 1.0, Some(&b.w[..self.order]), &mut zh, f);
-            }
+        let get = |i: usize| (blockers[i].sphere, Some(&blockers[i].w));
+        let c = blockers.len();
+        match self.order {
+            2 => self.accumulate_n::<2, 4>(p, n, c, get, f),
+            3 => self.accumulate_n::<3, 9>(p, n, c, get, f),
+            4 => self.accumulate_n::<4, 16>(p, n, c, get, f),
+            5 => self.accumulate_n::<5, 25>(p, n, c, get, f),
+            6 => self.accumulate_n::<6, 36>(p, n, c, get, f),
+            7 => self.accumulate_n::<7, 49>(p, n, c, get, f),
+            _ => self.accumulate_n::<8, 64>(p, n, c, get, f),
         }
     }
 
@@ -400,6 +438,29 @@ impl ShadowEvaluator<'_> {
         let n2 = self.order * self.order;
         self.accumulate_log_blockers(p, n, blockers, &mut f[..n2]);
         self.exponentiate(&f[..n2], &mut g[..n2]);
+        self.shade(n, &g[..n2])
+    }
+}
+
+impl ShadowEvaluator<'_> {
+    /// Shadowed irradiance with visibility accumulated and exponentiated at the (higher) order
+    /// of `accum` and truncated to this evaluator's order before shading (SHEXP Fig. 7e:
+    /// "accumulate using n = 6 blocker vectors, exponentiate, and then truncate to n = 4").
+    /// `accum` must have an order ≥ this one (otherwise its vector is zero-padded).
+    pub fn irradiance_accumulated_by(
+        &self,
+        accum: &ShadowEvaluator<'_>,
+        p: [f32; 3],
+        n: [f32; 3],
+        spheres: &[Sphere],
+    ) -> [f32; 3] {
+        let m2 = accum.order * accum.order;
+        let mut f = [0.0f32; N2];
+        let mut g = [0.0f32; N2];
+        accum.accumulate_log(p, n, spheres, &mut f[..m2]);
+        accum.exponentiate(&f[..m2], &mut g[..m2]);
+        let n2 = self.order * self.order;
+        g[m2.min(N2)..].iter_mut().for_each(|v| *v = 0.0);
         self.shade(n, &g[..n2])
     }
 }

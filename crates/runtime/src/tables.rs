@@ -223,6 +223,18 @@ impl<'a> ShTables<'a> {
         }
     }
 
+    /// The log-occlusion row interpolated at `alpha` for a compile-time order `N` (see
+    /// [`ShTables::proxy_log_occlusion`]).
+    #[inline(always)]
+    pub(crate) fn proxy_log_occlusion_n<const N: usize>(&self, alpha: f32) -> [f32; N] {
+        let k = self.k;
+        let t = alpha.clamp(0.0, 1.0) * (k - 1) as f32;
+        let i = (t as usize).min(k - 2);
+        let w = t - i as f32;
+        let rows = &self.proxy_log_occlusion[i * N..(i + 2) * N];
+        core::array::from_fn(|l| rows[l] * (1.0 - w) + rows[N + l] * w)
+    }
+
     /// Largest `α` at which a blocker's (smoothly clamped) log occlusion is still zero.
     #[inline]
     pub fn alpha_cut(&self) -> f32 {

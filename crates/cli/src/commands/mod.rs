@@ -5,6 +5,7 @@ pub mod fiv;
 pub mod inspect;
 pub mod mrt;
 pub mod spheres;
+pub mod sweep_shadows;
 pub mod tables;
 pub mod verify_fiv;
 pub mod verify_shadows;
@@ -28,6 +29,9 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
+        },
+        Command::Sweep(a) => match a.command {
+            crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
         },
         Command::Schema => {
             print!("{}", penumbra_config::schema_json());

@@ -11,6 +11,7 @@
 //! - `nrmse_log_vs_product`: runtime (log space) vs product-space accumulation (SHEXP eq. 6)
 //!   with the same tables, relative to the product result's range.
 
+use crate::args::{EnvRotateArg, UpArg};
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::ensure_parent;
@@ -48,15 +49,6 @@ pub enum ExpArg {
     Ps,
 }
 
-/// Up axis of the scene.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum UpAxis {
-    /// +Y up (glTF, most OBJ files).
-    Y,
-    /// +Z up.
-    Z,
-}
-
 /// `penumbra verify shadows`.
 #[derive(Debug, Args, Clone)]
 pub struct VerifyShadowsArgs {
@@ -69,7 +61,7 @@ pub struct VerifyShadowsArgs {
     /// The mesh the spheres were fitted to (ray-traced truth).
     #[arg(long)]
     pub mesh: PathBuf,
-    /// Environment map (lat-long .exr or .hdr).
+    /// Environment map (lat-long .exr or .hdr), or `builtin:area-lights`.
     #[arg(long)]
     pub env: PathBuf,
     /// Receivers.
@@ -104,8 +96,16 @@ pub struct VerifyShadowsArgs {
     #[arg(long)]
     pub no_window: bool,
     /// Up axis of the scene (the plane lies under the object along it).
-    #[arg(long, value_enum, default_value_t = UpAxis::Y)]
-    pub up: UpAxis,
+    #[arg(long, value_enum, default_value_t = UpArg::Y)]
+    pub up: UpArg,
+    /// Rotate the environment by 180° about an axis (exact texel permutation); `z180` brings
+    /// the upside-down grace_latlong.exr probe upright.
+    #[arg(long, value_enum, default_value_t = EnvRotateArg::None)]
+    pub env_rotate: EnvRotateArg,
+    /// SH tables of a higher order to accumulate and exponentiate visibility at, truncating to
+    /// `--tables`' order before shading (SHEXP Fig. 7e).
+    #[arg(long, value_name = "SHTB")]
+    pub accumulate_tables: Option<PathBuf>,
     /// Seed of the reference's stratified jitter.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -174,8 +174,8 @@ fn receivers(scene: &Scene, a: &VerifyShadowsArgs) -> Result<Vec<Receiver>, CliE
     let mesh = &scene.mesh;
     let b = mesh.bounds().ok_or_else(|| CliError::input(anyhow!("{}: the mesh is empty", a.mesh.display())))?;
     let up = match a.up {
-        UpAxis::Y => 1,
-        UpAxis::Z => 2,
+        UpArg::Y => 1,
+        UpArg::Z => 2,
     };
     match a.receivers {
         ReceiverKind::Plane => {
@@ -291,8 +291,31 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
         )));
     }
     let (scene, _) = penumbra_geometry::load_mesh(&a.mesh).map_err(CliError::input)?;
-    let (env, _) = penumbra_geometry::load_env_map(&a.env)
-        .with_context(|| format!("cannot load environment map {}", a.env.display()))?;
+    let env = match a.env.to_str().and_then(|s| s.strip_prefix("builtin:")) {
+        Some("area-lights") => penumbra_geometry::env::procedural::area_lights(512, 256),
+        Some(other) => {
+            return Err(CliError::input(anyhow!(
+                "--env builtin:{other}: unknown procedural environment (known: builtin:area-lights)"
+            )));
+        }
+        None => {
+            penumbra_geometry::load_env_map(&a.env)
+                .with_context(|| format!("cannot load environment map {}", a.env.display()))?
+                .0
+        }
+    };
+    use penumbra_geometry::env::Rotation;
+    let rotation = match a.env_rotate {
+        EnvRotateArg::None => Rotation::None,
+        EnvRotateArg::X180 => Rotation::X180,
+        EnvRotateArg::Y180 => Rotation::Y180,
+        EnvRotateArg::Z180 => Rotation::Z180,
+    };
+    let env = if rotation == Rotation::None {
+        env
+    } else {
+        env.rotated(rotation).ok_or_else(|| CliError::input(anyhow!("{}: cannot rotate this map", a.env.display())))?
+    };
     let order = tables.order();
     let exp = match a.exp {
         ExpArg::Hyb => RuntimeExp::Hyb,
@@ -315,6 +338,28 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             c.map(|x| x * w)
         })
         .collect();
+    let acc_file = a.accumulate_tables.as_deref().map(open_asset).transpose()?;
+    let acc_asset = acc_file.as_ref().map(|f| f.asset());
+    let acc_tables = acc_asset.as_ref().map(ShTables::from_asset).transpose().map_err(|e| {
+        CliError::input(anyhow!(
+            "{}: {e}",
+            a.accumulate_tables.as_ref().map(|p| p.display().to_string()).unwrap_or_default()
+        ))
+    })?;
+    if let Some(t) = &acc_tables {
+        if t.order() < order {
+            return Err(CliError::input(anyhow!(
+                "--accumulate-tables: order {} is below --tables' order {order} (it must be higher)",
+                t.order()
+            )));
+        }
+        if a.hierarchy {
+            return Err(CliError::input(anyhow!("--accumulate-tables cannot be combined with --hierarchy")));
+        }
+    }
+    let acc_light: Vec<[f32; 3]> =
+        acc_tables.as_ref().map(|t| env_rgb_sh(&env, t.order()).iter().map(|&c| to32(c)).collect()).unwrap_or_default();
+    let acc_ev = acc_tables.as_ref().map(|t| ShadowEvaluator::new(t, &acc_light, options));
     let recv = receivers(&scene, a)?;
     let n_recv = recv.len();
     let leaves: Vec<RtSphere> = (0..set.len()).map(|i| set.leaf(i)).collect();
@@ -355,7 +400,11 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             }
         } else {
             for (i, (p, n)) in recv.iter().enumerate() {
-                out[i] = ev.irradiance(to32(*p), to32(*n), &leaves).map(f64::from);
+                out[i] = match &acc_ev {
+                    Some(acc) => ev.irradiance_accumulated_by(acc, to32(*p), to32(*n), &leaves),
+                    None => ev.irradiance(to32(*p), to32(*n), &leaves),
+                }
+                .map(f64::from);
             }
             total_blockers = leaves.len() * n_recv;
         }
@@ -436,6 +485,8 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
         "exp_method": match a.exp { ExpArg::Hyb => "hyb".to_string(), ExpArg::Ol => "ol".to_string(), ExpArg::Ps => format!("ps*-{}", a.ps_degree) },
         "window": window,
         "order": order,
+        "accumulation_order": acc_tables.as_ref().map_or(order, |t| t.order()),
+        "env_rotate": format!("{:?}", a.env_rotate).to_lowercase(),
         "sphere_count": set.len(),
         "nrmse_definition": "RMSE over receivers and RGB / (max - min of the reference over receivers and RGB)",
     });
