@@ -53,6 +53,26 @@ fn corpus_v1_still_loads() {
                     }
                 }
             }
+            "MRTD" => {
+                // kind_version 1 (no interface sections): every shape's sections, shapes
+                // consistent with meta
+                let names: Vec<String> = meta["shapes"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|s| s["name"].as_str().unwrap().to_string())
+                    .collect();
+                let names: Vec<&str> = names.iter().map(String::as_str).collect();
+                let known = penumbra_transport::asset::section_names(&names);
+                let known: Vec<&str> = known.iter().map(String::as_str).collect();
+                a.require_known(&known).unwrap();
+                for (s, shape) in names.iter().zip(meta["shapes"].as_array().unwrap()) {
+                    let n = shape["texels"].as_u64().unwrap() as usize;
+                    let kb = shape["k_b"].as_u64().unwrap() as usize;
+                    assert_eq!(a.section(&format!("{s}.u_b")).unwrap().dims(), &[n, kb]);
+                    assert_eq!(a.section(&format!("{s}.t_d2b")).unwrap().dims(), &[kb, n]);
+                }
+            }
             other => panic!("no compatibility check for kind {other}"),
         }
         kinds.push(a.kind().as_str().to_string());

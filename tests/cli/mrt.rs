@@ -133,6 +133,7 @@ fn out_of_range_options_are_rejected_with_the_allowed_range() {
         (&["--enrich", "9"], "0..=8"),
         (&["--kd", "8", "--kb", "9"], "1..=kd"),
         (&["--dictionary", "sphere"], "cube2d"),
+        (&["--enrich", "0"], "--keep-same-face"),
     ];
     for (args, allowed) in cases {
         let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(*args).arg("-o").arg(&out));
@@ -182,9 +183,12 @@ fn bake_config_mrt_stage_bakes_then_skips_and_validates_keys() {
     assert_eq!(code, 0, "{stderr}");
     assert_eq!(std::fs::read(&standalone).unwrap(), baked);
     // bad keys name the key path
-    for (bad, what) in
-        [("kd = 16\nkb = 30\n", "mrt.kb"), ("gather = \"nearest\"\n", "mrt.gather"), ("face_rez = 3\n", "face_rez")]
-    {
+    for (bad, what) in [
+        ("kd = 16\nkb = 30\n", "mrt.kb"),
+        ("gather = \"nearest\"\n", "mrt.gather"),
+        ("face_rez = 3\n", "face_rez"),
+        ("enrich = 0\n", "mrt.exclude_same_face"),
+    ] {
         std::fs::write(&cfg, format!("output_dir = \"out\"\n[mrt]\n{bad}")).unwrap();
         let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
         assert_eq!(code, 2, "{stderr}");

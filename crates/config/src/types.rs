@@ -201,13 +201,21 @@ pub struct MrtStage {
     /// Enrichment iterations (App. A), 0..=8 (default 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub enrich: Option<u32>,
-    /// Face-restricted prior vectors per face in the enrichment fallback, 0..=kd (default 8;
+    /// Face-restricted prior vectors per face in the enrichment fallback, 0..=kd (default 16;
     /// 0 = face constants only, as in the thesis).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fallback_modes: Option<u32>,
     /// How gathers read the texels they hit: `bilinear` (default) or `exact` form factors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gather: Option<String>,
+    /// Balance F's row and column sums to the exact wall fractions so that energy is
+    /// conserved exactly (default true; docs/mrt.md, "Energy").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub balance: Option<bool>,
+    /// Runtime rule recorded in the dictionary: a face's indirect light leaves out the
+    /// reduced operator's transfer from that face to itself (default true; docs/mrt.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exclude_same_face: Option<bool>,
     /// Prior light positions: `lattice` (i/7, default) or `cells` ((i+1/2)/6).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_layout: Option<String>,

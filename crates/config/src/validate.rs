@@ -185,6 +185,12 @@ fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     }
     range(out, "mrt.enrich", m.enrich, 0, 8);
     range(out, "mrt.fallback_modes", m.fallback_modes, 0, kd);
+    if m.enrich == Some(0) && m.exclude_same_face != Some(false) {
+        out.push(issue(
+            "mrt.exclude_same_face",
+            "the same-face exclusion needs enrichment (enrich >= 1); set exclude_same_face = false with enrich = 0",
+        ));
+    }
     if let Some(g) = &m.gather {
         if g != "bilinear" && g != "exact" {
             out.push(issue("mrt.gather", format!("{g:?} is not a gather (allowed: \"bilinear\", \"exact\")")));

@@ -61,7 +61,7 @@ pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
             "frame": "each shape is the unit cube [0,1]^3, +Y up; faces -x,+x,-y(floor),+y(ceiling),-z,+z = 0..5; normals point inward",
             "texels": "face_frames[f] = (origin, u, v, n); texel (i,j) of a present face is centred at origin + (i+0.5)/R u + (j+0.5)/R v; a shape's texels are its present faces in face order, each row-major (j, then i): index slot*R^2 + j*R + i",
             "light": "l_d = direct irradiance at texel centres (any unit); U_b b = one-bounce indirect irradiance in the same unit for uniform albedo `params.albedo`; for coloured surfaces feed reflectance-weighted direct light per channel",
-            "runtime": "b = t_d2b . l_d (k_b); indirect = u_b . b (MRT thesis eq. 3.3)",
+            "runtime": "b = t_d2b . l_d (k_b); indirect = u_b . b (MRT thesis eq. 3.3); when params.exclude_same_face is true, the indirect light of the texels of face g is u_b[g] . (b - b_g) with b_g = t_d2b[:, g] . l_d[g] (a face's own direct light never reaches it; the same b - b_g for u_bvec)",
             "sh": "real orthonormal; index i = l(l+1)+m; Condon-Shortley as in graphics: y(1,-1) = -sqrt(3/4pi) y, y(1,0) = sqrt(3/4pi) z, y(1,1) = -sqrt(3/4pi) x",
             "u_bvec": "OHLSH (MRT thesis App. B) of incident radiance in the texel frame (x = face u, y = face v, z = inward normal); irradiance for unit normal m (texel frame) = pi*a0*y0 + (2pi/3)*sum_m a1m*y1m(m)",
             "u_bvol": "order-3 SH (9) of incident radiance at probe centres, world (shape) frame; irradiance for normal m = sum_l Ahat_l sum_m c_lm y_lm(m), Ahat = (pi, 2pi/3, pi/4)",

@@ -3,6 +3,7 @@
 //! and the quality measurements (MRT thesis ch. 3–4, App. A–B).
 
 use crate::TransportError;
+use crate::balance::{BalanceStats, balance_transport};
 use crate::gather::{DirectionSet, Gather, probe_sh, texel_sh, transport_matrix};
 use crate::operators::{Prior, Reduced, enrich, fallback_basis, prior_from_samples, reduce};
 use crate::prior::{DirectLight, LightLayout, SphereLight, prior_lights, test_lights};
@@ -45,6 +46,12 @@ pub struct DictParams {
     pub fallback_modes: usize,
     /// How gathers read the texels they hit.
     pub gather: Gather,
+    /// Balance `F`'s row and column sums to the exact wall fractions ([`crate::balance`]),
+    /// which makes `‖F l‖₁ ≤ ρ‖l‖₁` hold for every `l ≥ 0`.
+    pub balance: bool,
+    /// Runtime rule: a face's indirect light excludes the reduced operator's transfer from
+    /// that face to itself ([`predict_excluding_same_face`]); recorded in the asset.
+    pub exclude_same_face: bool,
     /// Prior light positions.
     pub layout: LightLayout,
     /// Radius of the prior and test sphere lights (cube edge = 1).
@@ -74,8 +81,10 @@ impl DictParams {
             rays: 16384,
             albedo: 1.0,
             enrich: 1,
-            fallback_modes: 8,
+            fallback_modes: 16,
             gather: Gather::Bilinear,
+            balance: true,
+            exclude_same_face: true,
             layout: LightLayout::Lattice,
             light_radius: 0.05,
             vector_rays: 1024,
@@ -99,6 +108,8 @@ impl DictParams {
             "enrich": self.enrich,
             "fallback_modes": self.fallback_modes,
             "gather": self.gather.name(),
+            "balance": self.balance,
+            "exclude_same_face": self.exclude_same_face,
             "light_layout": self.layout.name(),
             "light_radius": self.light_radius,
             "vector_rays": self.vector_rays,
@@ -132,6 +143,14 @@ impl DictParams {
         }
         if self.enrich > 8 {
             return bad("enrich", self.enrich.to_string(), "0..=8");
+        }
+        if self.exclude_same_face && self.enrich == 0 {
+            return Err(TransportError::Param(
+                "exclude_same_face needs enrichment (enrich >= 1): without the face-local prior vectors \
+                 it multiplies the error (docs/mrt.md, \"Enrichment\"); keep the same-face transfer \
+                 (--keep-same-face / exclude_same_face = false) with enrich 0"
+                    .into(),
+            ));
         }
         if self.fallback_modes > self.k_d {
             return bad("fallback_modes", self.fallback_modes.to_string(), &format!("0..=kd = 0..={}", self.k_d));
@@ -172,6 +191,8 @@ pub struct ShapeMetrics {
     pub k_b: usize,
     /// `‖U_b T_d→b l_d − F l_d‖ / ‖F l_d‖` over the test lights (not prior samples).
     pub reconstruction_rel_error: f64,
+    /// The same under the plain rule `U_b T_d→b l_d` (no same-face exclusion), for comparison.
+    pub reconstruction_rel_error_plain: f64,
     /// `‖U_b T_d→b l_d − E_ref‖ / ‖E_ref‖` against the path-traced one-bounce reference.
     pub reference_rel_error: f64,
     /// `‖F l_d − E_ref‖ / ‖E_ref‖`: the part of the error that `F`'s discretisation makes.
@@ -182,6 +203,8 @@ pub struct ShapeMetrics {
     pub vector_irradiance_rel_error: f64,
     /// Largest column sum of `F` divided by the albedo (energy: ≤ 1 means `‖F l‖₁ ≤ ρ‖l‖₁`).
     pub f_max_column_sum: f64,
+    /// What energy balancing changed (`null` when `balance` is off).
+    pub f_balance: Option<BalanceStats>,
 }
 
 /// Table 3.2 of the thesis: singular values holding 80/90/95 % of `Σσ²`.
@@ -203,15 +226,26 @@ pub struct Table32 {
 /// The five-red-faces case of App. A (Fig. A.1), measured on the closed cube.
 #[derive(Debug, Clone, Serialize)]
 pub struct RedBox {
-    /// RGB relative error of indirect light on the white face, without enrichment.
+    /// RGB relative error of indirect light on the white face, without enrichment (and
+    /// without the same-face exclusion: the thesis's unenriched runtime).
     pub rel_error_before: f64,
-    /// The same with the enriched operators.
+    /// The same with the final operators under the dictionary's runtime rule
+    /// (`exclude_same_face`).
     pub rel_error_after: f64,
     /// Non-red indirect light arriving on the white face relative to the red (the reference
     /// has none: a plane cannot light itself), without enrichment.
     pub non_red_on_white_before: f64,
     /// The same with the enriched operators.
     pub non_red_on_white_after: f64,
+    /// Relative error of the red channel alone on the white face (red light is an ordinary
+    /// light: this is the dictionary's general error for these lights there), without
+    /// enrichment.
+    pub red_on_white_before: f64,
+    /// The same with the enriched operators.
+    pub red_on_white_after: f64,
+    /// The enriched operators evaluated without the same-face exclusion (the thesis's
+    /// runtime rule), for comparison.
+    pub enriched_without_exclusion: RedBoxError,
 }
 
 /// The operators and samples of one shape.
@@ -363,9 +397,36 @@ pub fn rel_error(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
     if den > 0.0 { num / den } else { num }
 }
 
-/// `U_b (T_d→b L)`: the MRT one-bounce prediction for the direct-light columns `L`.
+/// `U_b (T_d→b L)`: the MRT one-bounce prediction for the direct-light columns `L` (eq. 3.3).
 pub fn predict(r: &Reduced, l: MatRef<'_, f64>) -> Mat<f64> {
     mul(r.u_b.as_ref(), mul(r.t_d2b.as_ref(), l).as_ref())
+}
+
+/// The runtime prediction under the dictionary's rule: [`predict`], or with
+/// `exclude_same_face` the same-face exclusion ([`predict_excluding_same_face`]).
+pub fn predict_with(tex: &Texels, r: &Reduced, l: MatRef<'_, f64>, exclude_same_face: bool) -> Mat<f64> {
+    if exclude_same_face { predict_excluding_same_face(tex, r, l) } else { predict(r, l) }
+}
+
+/// Same-face exclusion: face `g`'s indirect light is `U_b[g] (b − b_g)` with `b = T_d→b l`
+/// and `b_g = T_d→b[:, g] l[g]` the part of `b` that face `g`'s own direct light makes. A
+/// planar face cannot light itself (`F`'s same-face blocks are exactly zero), so the reduced
+/// operator's same-face blocks `U_b[g] T_d→b[:, g]` are pure error; dropping them removes,
+/// e.g., App. A's colour leak exactly (docs/mrt.md, "Enrichment"). The per-face partial
+/// sums `b_g` are what a runtime's per-face reduction of `T_d→b l` computes anyway.
+pub fn predict_excluding_same_face(tex: &Texels, r: &Reduced, l: MatRef<'_, f64>) -> Mat<f64> {
+    let b = mul(r.t_d2b.as_ref(), l);
+    let kb = r.u_b.ncols();
+    let mut out = Mat::<f64>::zeros(l.nrows(), l.ncols());
+    for &g in &tex.faces {
+        let rg = tex.face_range(g);
+        let bg = mul(r.t_d2b.subcols(rg.start, rg.len()), l.subrows(rg.start, rg.len()));
+        let d = &b - &bg;
+        let og = mul(r.u_b.as_ref().subrows(rg.start, rg.len()), d.as_ref());
+        out.as_mut().subrows_mut(rg.start, rg.len()).copy_from(og.as_ref());
+        debug_assert_eq!(d.nrows(), kb);
+    }
+    out
 }
 
 fn bake_shape(
@@ -384,8 +445,9 @@ fn bake_shape(
     let l_d = direct_matrix(&tex, &lights);
     let (prior0, sigma_d_all) = prior_from_samples(l_d.as_ref(), params.k_d)?;
     drop(l_d);
-    let f =
+    let mut f =
         transport_matrix(&tex, &dirs.cosine, params.albedo, params.gather, params.seed, id, &|k| st.transport.tick(k));
+    let f_balance = params.balance.then(|| balance_transport(&tex, &mut f, params.albedo));
     let before = reduce(f.as_ref(), &prior0, params.k_b)?;
     let fallback = fallback_basis(&tex, &prior0, params.fallback_modes);
     let mut prior: Prior = prior0.clone();
@@ -419,8 +481,9 @@ fn bake_shape(
     let tl = test_lights(&shape, params.layout, params.test_lights, params.light_radius, params.seed, id);
     let e_test = direct_matrix(&tex, &tl);
     let f_e = mul(f.as_ref(), e_test.as_ref());
-    let mrt = predict(&reduced, e_test.as_ref());
+    let mrt = predict_with(&tex, &reduced, e_test.as_ref(), params.exclude_same_face);
     let reconstruction_rel_error = rel_error(mrt.as_ref(), f_e.as_ref());
+    let reconstruction_rel_error_plain = rel_error(predict(&reduced, e_test.as_ref()).as_ref(), f_e.as_ref());
     let reference =
         one_bounce(&tex, &tl, params.albedo, params.reference_rays, params.seed, id, &|k| st.reference.tick(k));
     let reference_rel_error = rel_error(mrt.as_ref(), reference.indirect.as_ref());
@@ -436,7 +499,7 @@ fn bake_shape(
         let sf = singular_values_gram(f.as_ref())?;
         let counts = |s: &[f64]| TABLE_3_2_FRACTIONS.map(|p| energy_count(s, p));
         let table = Table32 { f: counts(&sf), l_d: counts(&sigma_d_all), m: counts(&before.sigma_m), n };
-        (Some(table), Some(red_box(&tex, f.as_ref(), &e_test, &before, &reduced)))
+        (Some(table), Some(red_box(&tex, f.as_ref(), &e_test, &before, &reduced, params.exclude_same_face)))
     } else {
         (None, None)
     };
@@ -446,11 +509,13 @@ fn bake_shape(
         k_d: prior.k(),
         k_b: kb,
         reconstruction_rel_error,
+        reconstruction_rel_error_plain,
         reference_rel_error,
         transport_reference_rel_error,
         reference_noise_rel,
         vector_irradiance_rel_error,
         f_max_column_sum,
+        f_balance,
     };
     let bake = ShapeBake { texels: tex, sigma_d_all, s: prior.s.clone(), reduced, u_bvec, probes, u_bvol, metrics };
     Ok(ShapeWork { bake, table, red })
@@ -469,24 +534,63 @@ fn vector_consistency(u_bvec: &[f64], u_b: &Mat<f64>) -> f64 {
     rel_error(e.as_ref(), u_b.as_ref())
 }
 
+/// The errors of one set of operators on the five-red-faces case.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RedBoxError {
+    /// RGB relative error of indirect light on the white face (green and blue counted).
+    pub rgb: f64,
+    /// Non-red (green) indirect light on the white face relative to the red reference there.
+    pub non_red: f64,
+    /// The red channel alone on the white face (an ordinary light: the dictionary's general
+    /// reconstruction error for these lights on this face).
+    pub red: f64,
+}
+
 /// App. A, Fig. A.1: the closed cube with five red faces (reflectance `(ρ, 0, 0)`) and a white
-/// floor (`(ρ, ρ, ρ)`), lit by the test lights. The runtime input per channel is the
-/// reflectance-weighted direct light; the reference is `F` applied to it.
-fn red_box(tex: &Texels, f: MatRef<'_, f64>, e: &Mat<f64>, before: &Reduced, after: &Reduced) -> RedBox {
+/// floor (`(ρ, ρ, ρ)`), lit by the direct-light columns `e`. The runtime input per channel is
+/// the reflectance-weighted direct light (red: `e`; green and blue: `e` on the floor only);
+/// the reference is `F` applied to it. Only the white face is measured: the red faces'
+/// green and blue reflectance is 0, so whatever reaches them there is never seen.
+pub fn red_box_error(
+    tex: &Texels,
+    f: MatRef<'_, f64>,
+    e: MatRef<'_, f64>,
+    r: &Reduced,
+    exclude_same_face: bool,
+) -> RedBoxError {
     const WHITE: usize = 2;
     let white = tex.face_range(WHITE);
     let green = Mat::from_fn(e.nrows(), e.ncols(), |i, j| if white.contains(&i) { e[(i, j)] } else { 0.0 });
-    let ref_r = mul(f, e.as_ref());
-    let ref_g = mul(f, green.as_ref());
     let on_white = |a: &Mat<f64>| Mat::from_fn(white.len(), a.ncols(), |i, j| a[(white.start + i, j)]);
-    let measure = |r: &Reduced| {
-        let (mr, mg) = (on_white(&predict(r, e.as_ref())), on_white(&predict(r, green.as_ref())));
-        let (rr, rg) = (on_white(&ref_r), on_white(&ref_g));
-        let err2 = frobenius((&mr - &rr).as_ref()).powi(2) + 2.0 * frobenius((&mg - &rg).as_ref()).powi(2);
-        let ref2 = frobenius(rr.as_ref()).powi(2) + 2.0 * frobenius(rg.as_ref()).powi(2);
-        ((err2 / ref2).sqrt(), frobenius(mg.as_ref()) / frobenius(rr.as_ref()))
-    };
-    let (rel_error_before, non_red_on_white_before) = measure(before);
-    let (rel_error_after, non_red_on_white_after) = measure(after);
-    RedBox { rel_error_before, rel_error_after, non_red_on_white_before, non_red_on_white_after }
+    let (rr, rg) = (on_white(&mul(f, e)), on_white(&mul(f, green.as_ref())));
+    let (mr, mg) = (
+        on_white(&predict_with(tex, r, e, exclude_same_face)),
+        on_white(&predict_with(tex, r, green.as_ref(), exclude_same_face)),
+    );
+    let er2 = frobenius((&mr - &rr).as_ref()).powi(2);
+    let eg2 = frobenius((&mg - &rg).as_ref()).powi(2);
+    let ref2 = frobenius(rr.as_ref()).powi(2) + 2.0 * frobenius(rg.as_ref()).powi(2);
+    let red_norm = frobenius(rr.as_ref());
+    RedBoxError {
+        rgb: ((er2 + 2.0 * eg2) / ref2).sqrt(),
+        non_red: frobenius(mg.as_ref()) / red_norm,
+        red: er2.sqrt() / red_norm,
+    }
+}
+
+fn red_box(tex: &Texels, f: MatRef<'_, f64>, e: &Mat<f64>, before: &Reduced, after: &Reduced, exclude: bool) -> RedBox {
+    // before: the thesis's runtime without enrichment (the plain rule: the exclusion needs
+    // face-local prior vectors, which only enrichment brings)
+    let b = red_box_error(tex, f, e.as_ref(), before, false);
+    let p = red_box_error(tex, f, e.as_ref(), after, false);
+    let a = red_box_error(tex, f, e.as_ref(), after, exclude);
+    RedBox {
+        rel_error_before: b.rgb,
+        rel_error_after: a.rgb,
+        non_red_on_white_before: b.non_red,
+        non_red_on_white_after: a.non_red,
+        red_on_white_before: b.red,
+        red_on_white_after: a.red,
+        enriched_without_exclusion: p,
+    }
 }

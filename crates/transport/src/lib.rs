@@ -4,6 +4,7 @@
 //! - [`shape`]: the cube dictionary (§3.5.1), texel layout, analytic ray queries.
 //! - [`prior`]: the direct-light prior samples (§4.1.1) with wall shadowing.
 //! - [`gather`]: the one-bounce operator `F` by ray gathers, SH gathers of implicit lights.
+//! - [`balance`]: exact energy balance of `F` (row and column sums = ρ × wall fraction).
 //! - [`svd`]: faer SVDs (canonical, deterministic) and products.
 //! - [`operators`]: `P`, `S`, `M`, `U_b`, `T_d→b`, `L_imp` (§3.3) and enrichment (App. A).
 //! - [`reference`]: the brute-force ground truth (path tracer, exact form factors).
@@ -16,6 +17,7 @@
 //! across independent work, so the output bytes do not depend on the thread count.
 
 pub mod asset;
+pub mod balance;
 pub mod dict;
 pub mod gather;
 pub mod operators;

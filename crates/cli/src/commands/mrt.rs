@@ -96,11 +96,20 @@ pub struct MrtDictArgs {
     pub enrich: u32,
     /// Face-restricted prior vectors per face in the enrichment fallback (0 = face constants
     /// only, as in the thesis; at most k_d).
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=256))]
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(0..=256))]
     pub fallback_modes: u32,
     /// How a gather reads the texels it hits.
     #[arg(long, value_enum, default_value_t = GatherArg::Bilinear)]
     pub gather: GatherArg,
+    /// Keep the collocated F as gathered (no energy balance; column sums may exceed the
+    /// albedo next to cube corners, docs/mrt.md "Energy").
+    #[arg(long)]
+    pub no_balance: bool,
+    /// Record the plain runtime rule l_ind = U_b·b (the thesis's) instead of the same-face
+    /// exclusion (a face's own direct light does not reach itself; docs/mrt.md). Use it
+    /// with --enrich 0: the exclusion needs the enrichment's face-local prior vectors.
+    #[arg(long)]
+    pub keep_same_face: bool,
     /// Where the prior's sphere lights sit.
     #[arg(long, value_enum, default_value_t = LayoutArg::Lattice)]
     pub light_layout: LayoutArg,
@@ -165,6 +174,10 @@ pub struct DictOptions {
     pub fallback_modes: Option<u32>,
     /// `bilinear` / `exact`.
     pub gather: Option<String>,
+    /// Energy balance of F.
+    pub balance: Option<bool>,
+    /// Same-face exclusion rule.
+    pub exclude_same_face: Option<bool>,
     /// `lattice` / `cells`.
     pub light_layout: Option<String>,
     /// Light radius.
@@ -196,6 +209,8 @@ impl DictOptions {
             enrich: m.enrich,
             fallback_modes: m.fallback_modes,
             gather: m.gather.clone(),
+            balance: m.balance,
+            exclude_same_face: m.exclude_same_face,
             light_layout: m.light_layout.clone(),
             light_radius: m.light_radius,
             vector_rays: m.vector_rays,
@@ -242,6 +257,12 @@ pub fn params(o: &DictOptions) -> Result<DictParams, CliError> {
     }
     if let Some(s) = o.seed {
         p.seed = s;
+    }
+    if let Some(b) = o.balance {
+        p.balance = b;
+    }
+    if let Some(x) = o.exclude_same_face {
+        p.exclude_same_face = x;
     }
     if let Some(g) = o.gather.as_deref() {
         p.gather = Gather::parse(g).ok_or_else(|| bad("gather", g, "bilinear, exact"))?;
@@ -307,6 +328,8 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             }
             .into(),
         ),
+        balance: Some(!a.no_balance),
+        exclude_same_face: Some(!a.keep_same_face),
         light_layout: Some(
             match a.light_layout {
                 LayoutArg::Lattice => "lattice",
