@@ -120,6 +120,42 @@ fn shadows(c: &mut Criterion) {
             acc
         })
     });
+    // Batched (8 receivers per call-step, structure of arrays; same results bit for bit).
+    let normals = vec![n; receivers.len()];
+    g.bench_function("64_spheres_order4_hyb_no_hierarchy_batched", |b| {
+        let mut out = vec![[0.0f32; 3]; receivers.len()];
+        b.iter(|| {
+            ev.irradiance_batch(&receivers, &normals, black_box(&leaves), &mut out);
+            out[0][0]
+        })
+    });
+    g.bench_function("64_spheres_order4_hyb_hierarchy_tiles8_batched", |b| {
+        let mut stack: Vec<NodeRef> = Vec::new();
+        let mut cut: Vec<NodeRef> = Vec::new();
+        let mut blockers: Vec<CutBlocker> = Vec::new();
+        let mut tile_p = vec![[0.0f32; 3]; 64];
+        let tile_n = vec![n; 64];
+        let mut out = vec![[0.0f32; 3]; 64];
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for ty in 0..res / 8 {
+                for tx in 0..res / 8 {
+                    let center = receivers[(ty * 8 + 4) * res + tx * 8 + 4];
+                    let r_r = 2.4 / res as f32 * 8.0 * std::f32::consts::FRAC_1_SQRT_2;
+                    set.cut(center, r_r, sin_max, &mut stack, &mut cut);
+                    ev.cluster_blockers(&set, &cut, center, n, &mut blockers);
+                    for y in 0..8 {
+                        for x in 0..8 {
+                            tile_p[y * 8 + x] = receivers[(ty * 8 + y) * res + tx * 8 + x];
+                        }
+                    }
+                    ev.irradiance_blockers_batch(&tile_p, &tile_n, &blockers, &mut out);
+                    acc += out[0][0];
+                }
+            }
+            acc
+        })
+    });
     g.finish();
 }
 

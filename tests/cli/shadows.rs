@@ -235,3 +235,70 @@ fn indirect_of_disjoint_proxies_adds_up() {
     let sum = one_a + one_b;
     assert!((both - sum).abs() < 0.1 * sum, "pair {both} vs sum of singles {sum}");
 }
+
+/// Deterministic pseudo-random in [0, 1) (SplitMix64 of the index).
+fn unit(i: u64) -> f32 {
+    let mut z = i.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+}
+
+#[test]
+fn batched_evaluation_equals_the_scalar_path_bit_for_bit() {
+    use penumbra_runtime::shadows::{CutBlocker, RuntimeExp};
+    // Spheres over and through a bumpy receiver patch: receivers inside spheres, straddling
+    // ones, spheres behind the tangent plane and far ones outside the sphere of influence.
+    let spheres: Vec<Sphere> = (0..40u64)
+        .map(|k| Sphere {
+            center: [2.0 * unit(4 * k) - 1.0, 0.9 * unit(4 * k + 1) - 0.2, 2.0 * unit(4 * k + 2) - 1.0],
+            radius: 0.05 + 0.3 * unit(4 * k + 3),
+        })
+        .chain([Sphere { center: [30.0, 1.0, 0.0], radius: 0.1 }])
+        .collect();
+    // 37 receivers: not a multiple of the batch width
+    let points: Vec<[f32; 3]> =
+        (0..37u64).map(|k| [2.0 * unit(100 + k) - 1.0, 0.1 * unit(200 + k), 2.0 * unit(300 + k) - 1.0]).collect();
+    let normals: Vec<[f32; 3]> = (0..37u64)
+        .map(|k| {
+            let (a, b) = (0.6 * (unit(400 + k) - 0.5), 0.6 * (unit(500 + k) - 0.5));
+            let l = (a * a + 1.0 + b * b).sqrt();
+            [a / l, 1.0 / l, b / l]
+        })
+        .collect();
+    let blockers: Vec<CutBlocker> = spheres
+        .iter()
+        .enumerate()
+        .map(|(i, &sphere)| CutBlocker {
+            sphere,
+            w: core::array::from_fn(|l| 0.7 + 0.6 * unit(1000 + 8 * i as u64 + l as u64)),
+        })
+        .collect();
+    for order in [3usize, 4, 6] {
+        let bytes = tables_bytes(order);
+        let owned = OwnedAsset::parse(&bytes).unwrap();
+        let t = ShTables::from_asset(&owned.asset()).unwrap();
+        let mut light = white(order);
+        light[2] = [1.0, 0.5, 0.2];
+        for exp in [RuntimeExp::Hyb, RuntimeExp::Ol, RuntimeExp::PsStar(2)] {
+            for rules in [true, false] {
+                let opts = ShadowOptions { exp, self_shadow_rules: rules, window: true };
+                let ev = ShadowEvaluator::new(&t, &light, opts);
+                let mut batch = vec![[0.0f32; 3]; points.len()];
+                ev.irradiance_batch(&points, &normals, &spheres, &mut batch);
+                let mut batch_b = vec![[0.0f32; 3]; points.len()];
+                ev.irradiance_blockers_batch(&points, &normals, &blockers, &mut batch_b);
+                let mut shadowed = 0;
+                for k in 0..points.len() {
+                    let scalar = ev.irradiance(points[k], normals[k], &spheres);
+                    assert_eq!(batch[k], scalar, "order {order} {exp:?} rules {rules} receiver {k}");
+                    let scalar_b = ev.irradiance_blockers(points[k], normals[k], &blockers);
+                    assert_eq!(batch_b[k], scalar_b, "blockers: order {order} {exp:?} rules {rules} receiver {k}");
+                    shadowed += usize::from(scalar[0] < 0.9 * ev.unshadowed(normals[k])[0]);
+                }
+                // the case is not vacuous: most receivers are in shadow
+                assert!(shadowed > points.len() / 2, "only {shadowed} receivers shadowed");
+            }
+        }
+    }
+}

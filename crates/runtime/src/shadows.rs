@@ -16,6 +16,9 @@
 use crate::sh::MAX_ORDER;
 use crate::tables::ShTables;
 
+mod batch;
+pub use batch::LANES;
+
 const N2: usize = MAX_ORDER * MAX_ORDER;
 const SQRT_4PI: f32 = 3.544_907_7;
 

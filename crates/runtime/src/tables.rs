@@ -316,6 +316,69 @@ impl<'a> ShTables<'a> {
         }
     }
 
+    /// HYB's number of squarings `s` for an input of AC norm `norm_hat`: none inside OL's
+    /// accurate domain, else enough halvings to bring it down to `hyb_target_norm`.
+    #[inline]
+    pub(crate) fn hyb_squarings(&self, norm_hat: f32) -> i32 {
+        if norm_hat.is_finite() && norm_hat > self.ol_accurate_norm && self.hyb_target_norm > 0.0 {
+            (norm_hat / self.hyb_target_norm).log2().ceil().max(0.0) as i32
+        } else {
+            0
+        }
+    }
+
+    /// [`ShTables::square`] on `L` receivers at once, structure of arrays (`g[i][lane]`):
+    /// the same terms in the same order per lane, so each lane equals the scalar result.
+    #[inline(always)]
+    pub(crate) fn square_lanes<const N2: usize, const L: usize>(&self, g: &[[f32; L]; N2], out: &mut [[f32; L]; N2]) {
+        *out = [[0.0; L]; N2];
+        for &(i, j, k, v) in &self.gamma_square {
+            let (gj, gk) = (g[j as usize], g[k as usize]);
+            let o = &mut out[i as usize];
+            for lane in 0..L {
+                o[lane] += v * gj[lane] * gk[lane];
+            }
+        }
+    }
+
+    /// [`ShTables::exp_hyb`] on `L` receivers at once (`f[i][lane]`, `order² = N2`). Lanes
+    /// that need fewer squarings than the batch's maximum keep their value; every lane
+    /// equals the scalar result exactly (same operations in the same order; tested).
+    pub(crate) fn exp_hyb_lanes<const N2: usize, const L: usize>(&self, f: &[[f32; L]; N2], out: &mut [[f32; L]; N2]) {
+        let sqrt_4pi = (4.0 * core::f32::consts::PI).sqrt();
+        let mut steps = [0i32; L];
+        let mut g = [[0.0f32; L]; N2];
+        for lane in 0..L {
+            let norm_hat = (1..N2).map(|i| f[i][lane] * f[i][lane]).sum::<f32>().sqrt();
+            let s = self.hyb_squarings(norm_hat);
+            let scale = 0.5f32.powi(s);
+            let (a, b) = self.ol_ab(norm_hat * scale);
+            steps[lane] = s;
+            g[0][lane] = a * sqrt_4pi;
+            for i in 1..N2 {
+                g[i][lane] = b * scale * f[i][lane];
+            }
+        }
+        let max_steps = steps.iter().copied().max().unwrap_or(0);
+        let mut sq = [[0.0f32; L]; N2];
+        for step in 0..max_steps {
+            self.square_lanes(&g, &mut sq);
+            for lane in 0..L {
+                if step < steps[lane] {
+                    for i in 0..N2 {
+                        g[i][lane] = sq[i][lane];
+                    }
+                }
+            }
+        }
+        for lane in 0..L {
+            let dc = (f[0][lane] / sqrt_4pi).exp();
+            for i in 0..N2 {
+                out[i][lane] = g[i][lane] * dc;
+            }
+        }
+    }
+
     /// HYB SH exponential (SHEXP §4.3): DC isolation, scale `f̂` by `2^-s` so it lies in
     /// OL's domain (no scaling inside `ol_accurate_norm`, else down to
     /// `hyb_target_norm`), OL (eq. 23), `s` squarings. `f` and `out` have `order²` entries.
@@ -323,11 +386,7 @@ impl<'a> ShTables<'a> {
         let n2 = self.order * self.order;
         let sqrt_4pi = (4.0 * core::f32::consts::PI).sqrt();
         let norm_hat = f[1..n2].iter().map(|x| x * x).sum::<f32>().sqrt();
-        let s = if norm_hat.is_finite() && norm_hat > self.ol_accurate_norm && self.hyb_target_norm > 0.0 {
-            (norm_hat / self.hyb_target_norm).log2().ceil().max(0.0) as i32
-        } else {
-            0
-        };
+        let s = self.hyb_squarings(norm_hat);
         let scale = 0.5f32.powi(s);
         let (a, b) = self.ol_ab(norm_hat * scale);
         let mut g = [0.0f32; N2_MAX];

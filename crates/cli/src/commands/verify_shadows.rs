@@ -367,6 +367,8 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
     // runtime, timed on one thread
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().map_err(CliError::internal)?;
     let clusters = clusters(&recv, a);
+    let p32: Vec<[f32; 3]> = recv.iter().map(|(p, _)| to32(*p)).collect();
+    let n32: Vec<[f32; 3]> = recv.iter().map(|(_, n)| to32(*n)).collect();
     let (runtime, ns_per_receiver, blockers_per_receiver) = pool.install(|| {
         let start = Instant::now();
         let mut out = vec![[0.0f64; 3]; n_recv];
@@ -376,6 +378,7 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             let mut stack: Vec<NodeRef> = Vec::new();
             let mut cut: Vec<NodeRef> = Vec::new();
             let mut blockers: Vec<CutBlocker> = Vec::new();
+            let (mut cp, mut cn, mut co) = (Vec::new(), Vec::new(), Vec::new());
             for cl in &clusters {
                 let mut g = [0.0f64; 3];
                 for &i in cl {
@@ -394,17 +397,31 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
                 set.cut(to32(g), r_r as f32, sin_max, &mut stack, &mut cut);
                 ev.cluster_blockers(&set, &cut, to32(recv[star].0), to32(recv[star].1), &mut blockers);
                 total_blockers += blockers.len() * cl.len();
-                for &i in cl {
-                    out[i] = ev.irradiance_blockers(to32(recv[i].0), to32(recv[i].1), &blockers).map(f64::from);
+                // the cluster's receivers share the blockers: one batched call
+                cp.clear();
+                cn.clear();
+                cp.extend(cl.iter().map(|&i| p32[i]));
+                cn.extend(cl.iter().map(|&i| n32[i]));
+                co.resize(cl.len(), [0.0f32; 3]);
+                ev.irradiance_blockers_batch(&cp, &cn, &blockers, &mut co);
+                for (k, &i) in cl.iter().enumerate() {
+                    out[i] = co[k].map(f64::from);
                 }
             }
         } else {
-            for (i, (p, n)) in recv.iter().enumerate() {
-                out[i] = match &acc_ev {
-                    Some(acc) => ev.irradiance_accumulated_by(acc, to32(*p), to32(*n), &leaves),
-                    None => ev.irradiance(to32(*p), to32(*n), &leaves),
+            match &acc_ev {
+                Some(acc) => {
+                    for (i, (p, n)) in recv.iter().enumerate() {
+                        out[i] = ev.irradiance_accumulated_by(acc, to32(*p), to32(*n), &leaves).map(f64::from);
+                    }
                 }
-                .map(f64::from);
+                None => {
+                    let mut o32 = vec![[0.0f32; 3]; n_recv];
+                    ev.irradiance_batch(&p32, &n32, &leaves, &mut o32);
+                    for (o, v) in out.iter_mut().zip(&o32) {
+                        *o = v.map(f64::from);
+                    }
+                }
             }
             total_blockers = leaves.len() * n_recv;
         }

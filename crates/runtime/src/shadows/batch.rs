@@ -1,0 +1,217 @@
+//! Receiver-batched shadow evaluation: [`LANES`] receivers at a time in structure-of-arrays
+//! form, so the compiler vectorises across receivers the way a GPU runs SHEXP §7's shader
+//! once per vertex. Every lane performs the scalar path's operations in the scalar path's
+//! order (replacement rules, log accumulation, HYB, shading), so a batch returns exactly
+//! what [`ShadowEvaluator::irradiance`] returns per receiver, for any batch composition
+//! (tested bit for bit) — batching is a speed choice, never an accuracy one.
+
+use super::{CutBlocker, RuntimeExp, ShadowEvaluator, Sphere};
+use crate::sh::MAX_ORDER;
+
+/// Receivers evaluated together. Eight f32 lanes fill one AVX register or two SSE ones.
+pub const LANES: usize = 8;
+
+type V = [f32; LANES];
+
+/// Receiver positions and normals of one batch, structure of arrays.
+struct Receivers {
+    p: [V; 3],
+    n: [V; 3],
+}
+
+/// The self-shadow replacement rules ([`super::replace`]) for one sphere on every lane:
+/// returns the effective centre, radius and whether the lane keeps the sphere. Same
+/// operations as the scalar rule (component-wise, in its order), every case evaluated and
+/// selected per lane so the loop vectorises.
+#[inline(always)]
+fn replace_lanes(s: Sphere, rc: &Receivers) -> ([V; 3], V, [bool; LANES]) {
+    let mut center = [[0.0f32; LANES]; 3];
+    let mut radius = [0.0f32; LANES];
+    let mut keep = [false; LANES];
+    let r = s.radius;
+    let [cx, cy, cz] = s.center;
+    for lane in 0..LANES {
+        let (px, py, pz) = (rc.p[0][lane], rc.p[1][lane], rc.p[2][lane]);
+        let (nx, ny, nz) = (rc.n[0][lane], rc.n[1][lane], rc.n[2][lane]);
+        let (cpx, cpy, cpz) = (cx - px, cy - py, cz - pz);
+        let h = cpx * nx + cpy * ny + cpz * nz;
+        let d2 = cpx * cpx + cpy * cpy + cpz * cpz;
+        let (q1x, q1y, q1z) = (cx + nx * -h, cy + ny * -h, cz + nz * -h);
+        // outside and straddling: the radius grows from the inside rule's to S''s
+        let dc = (r * r - h * h).max(0.0).sqrt();
+        let (vx, vy, vz) = (px - q1x, py - q1y, pz - q1z);
+        let in_plane = (vx * vx + vy * vy + vz * vz).sqrt();
+        let t = if dc > 0.0 { ((in_plane - dc) / dc).clamp(0.0, 1.0) } else { 1.0 };
+        let straddle = (1.0 - t) * h.max(0.0) + t * 0.5 * (h + r);
+        let inside = d2 < r * r;
+        let unchanged = !inside && h >= r;
+        let removed = if inside { h <= 0.0 } else { h <= -r };
+        let rho = if inside { h } else { straddle };
+        center[0][lane] = if unchanged { cx } else { q1x + nx * rho };
+        center[1][lane] = if unchanged { cy } else { q1y + ny * rho };
+        center[2][lane] = if unchanged { cz } else { q1z + nz * rho };
+        radius[lane] = if unchanged { r } else { rho };
+        keep[lane] = !removed && (unchanged || rho > 0.0);
+    }
+    (center, radius, keep)
+}
+
+impl ShadowEvaluator<'_> {
+    /// Shadowed irradiance at every receiver `(points[k], normals[k])` from `spheres`,
+    /// written to `out[k]`: the batched form of [`ShadowEvaluator::irradiance`], with the
+    /// same result per receiver. Panics if the three slices differ in length.
+    pub fn irradiance_batch(
+        &self,
+        points: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        spheres: &[Sphere],
+        out: &mut [[f32; 3]],
+    ) {
+        let get = |i: usize| (spheres[i], None);
+        self.batch_dispatch(points, normals, spheres.len(), get, out);
+    }
+
+    /// Shadowed irradiance at every receiver from a cluster's cut blockers with their ratio
+    /// vectors: the batched form of [`ShadowEvaluator::irradiance_blockers`].
+    pub fn irradiance_blockers_batch(
+        &self,
+        points: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        blockers: &[CutBlocker],
+        out: &mut [[f32; 3]],
+    ) {
+        let get = |i: usize| (blockers[i].sphere, Some(&blockers[i].w));
+        self.batch_dispatch(points, normals, blockers.len(), get, out);
+    }
+
+    fn batch_dispatch<'w>(
+        &self,
+        points: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        count: usize,
+        get: impl Fn(usize) -> (Sphere, Option<&'w [f32; MAX_ORDER]>) + Copy,
+        out: &mut [[f32; 3]],
+    ) {
+        assert!(points.len() == normals.len() && points.len() == out.len(), "receiver slices differ in length");
+        match self.order {
+            2 => self.batch_n::<2, 4>(points, normals, count, get, out),
+            3 => self.batch_n::<3, 9>(points, normals, count, get, out),
+            4 => self.batch_n::<4, 16>(points, normals, count, get, out),
+            5 => self.batch_n::<5, 25>(points, normals, count, get, out),
+            6 => self.batch_n::<6, 36>(points, normals, count, get, out),
+            7 => self.batch_n::<7, 49>(points, normals, count, get, out),
+            _ => self.batch_n::<8, 64>(points, normals, count, get, out),
+        }
+    }
+
+    fn batch_n<'w, const N: usize, const N2: usize>(
+        &self,
+        points: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        count: usize,
+        get: impl Fn(usize) -> (Sphere, Option<&'w [f32; MAX_ORDER]>) + Copy,
+        out: &mut [[f32; 3]],
+    ) {
+        let mut f = [[0.0f32; LANES]; N2];
+        let mut g = [[0.0f32; LANES]; N2];
+        for start in (0..points.len()).step_by(LANES) {
+            let m = LANES.min(points.len() - start);
+            // a short last batch repeats its last receiver in the spare lanes
+            let mut rc = Receivers { p: [[0.0; LANES]; 3], n: [[0.0; LANES]; 3] };
+            for lane in 0..LANES {
+                let k = start + lane.min(m - 1);
+                for a in 0..3 {
+                    rc.p[a][lane] = points[k][a];
+                    rc.n[a][lane] = normals[k][a];
+                }
+            }
+            self.accumulate_lanes::<N, N2>(&rc, count, get, &mut f);
+            self.exponentiate_lanes::<N2>(&f, &mut g);
+            for lane in 0..m {
+                let gl: [f32; N2] = core::array::from_fn(|i| g[i][lane]);
+                let n = [rc.n[0][lane], rc.n[1][lane], rc.n[2][lane]];
+                out[start + lane] = self.shade(n, &gl);
+            }
+        }
+    }
+
+    /// [`ShadowEvaluator::accumulate_log`]'s loop on every lane: a sphere no lane keeps is
+    /// skipped whole; in the others, a lane that drops it adds exact zeros.
+    #[inline(always)]
+    fn accumulate_lanes<'w, const N: usize, const N2: usize>(
+        &self,
+        rc: &Receivers,
+        count: usize,
+        get: impl Fn(usize) -> (Sphere, Option<&'w [f32; MAX_ORDER]>),
+        f: &mut [V; N2],
+    ) {
+        *f = [[0.0; LANES]; N2];
+        let alpha_cut = self.tables.alpha_cut();
+        let basis = self.tables.basis();
+        let rules = self.options.self_shadow_rules;
+        for i in 0..count {
+            let (s0, w) = get(i);
+            let (center, radius, mut keep) = if rules {
+                replace_lanes(s0, rc)
+            } else {
+                (
+                    [[s0.center[0]; LANES], [s0.center[1]; LANES], [s0.center[2]; LANES]],
+                    [s0.radius; LANES],
+                    [true; LANES],
+                )
+            };
+            let mut dir = [[0.0f32; LANES]; 3];
+            let mut alpha = [0.0f32; LANES];
+            for lane in 0..LANES {
+                let (vx, vy, vz) =
+                    (center[0][lane] - rc.p[0][lane], center[1][lane] - rc.p[1][lane], center[2][lane] - rc.p[2][lane]);
+                let d2 = vx * vx + vy * vy + vz * vz;
+                let d = d2.sqrt();
+                let a = (radius[lane] / d).min(1.0);
+                // `d2 > 0` is false for NaN too
+                let ok = keep[lane] && d2 > 0.0 && radius[lane] > 0.0 && a > alpha_cut;
+                keep[lane] = ok;
+                let inv = 1.0 / d;
+                // a dropped lane evaluates the basis at +Z with zero weights
+                dir[0][lane] = if ok { vx * inv } else { 0.0 };
+                dir[1][lane] = if ok { vy * inv } else { 0.0 };
+                dir[2][lane] = if ok { vz * inv } else { 1.0 };
+                alpha[lane] = a;
+            }
+            if !keep.iter().any(|&k| k) {
+                continue;
+            }
+            let mut zh = [[0.0f32; LANES]; N];
+            for lane in 0..LANES {
+                if keep[lane] {
+                    let mut z = self.tables.proxy_log_occlusion_n::<N>(alpha[lane]);
+                    if let Some(w) = w {
+                        for l in 0..N {
+                            z[l] *= w[l];
+                        }
+                    }
+                    for l in 0..N {
+                        zh[l][lane] = z[l];
+                    }
+                }
+            }
+            basis.add_zonal_lanes::<N, N2, LANES>(&dir, &zh, f);
+        }
+    }
+
+    /// [`ShadowEvaluator::exponentiate`] on every lane (HYB batched; OL and PS*-p per lane).
+    fn exponentiate_lanes<const N2: usize>(&self, f: &[V; N2], g: &mut [V; N2]) {
+        if self.options.exp == RuntimeExp::Hyb {
+            self.tables.exp_hyb_lanes::<N2, LANES>(f, g);
+            return;
+        }
+        for lane in 0..LANES {
+            let fl: [f32; N2] = core::array::from_fn(|i| f[i][lane]);
+            let mut gl = [0.0f32; N2];
+            self.exponentiate(&fl, &mut gl);
+            for i in 0..N2 {
+                g[i][lane] = gl[i];
+            }
+        }
+    }
+}
