@@ -169,6 +169,30 @@ pub struct MrtStage {
     /// Seed of every hashed random draw (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
+    /// Bake the interface operators (default true; needed by `[mrt_level]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interfaces: Option<bool>,
+    /// Reduced lightfield modes, 1..=512 (default 128).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_rlf: Option<u32>,
+    /// Interface response modes, 1..=k_rlf (default 32).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_r: Option<u32>,
+    /// Lightfield spatial samples per interface edge, 2..=32 (default 12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf_spatial: Option<u32>,
+    /// Lightfield directional samples per square edge, 2..=64 (default 24).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf_dir: Option<u32>,
+    /// Directional supersamples per cell edge, 1..=8 (default 5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf_super: Option<u32>,
+    /// Enrichment iterations of the lightfield basis, 0..=8 (default 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interface_enrich: Option<u32>,
+    /// Cosine gather rays per texel of the interface response, 16..=65536 (default 1024).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub response_rays: Option<u32>,
     /// Output file name inside `output_dir` (default `dictionary.mrtd`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,

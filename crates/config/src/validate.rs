@@ -157,6 +157,13 @@ fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     range(out, "mrt.probe_rays", m.probe_rays, 16, 65536);
     range(out, "mrt.test_lights", m.test_lights, 1, 64);
     range(out, "mrt.reference_rays", m.reference_rays, 2, 65536);
+    range(out, "mrt.k_rlf", m.k_rlf, 1, 512);
+    range(out, "mrt.k_r", m.k_r, 1, m.k_rlf.unwrap_or(128).max(1));
+    range(out, "mrt.lf_spatial", m.lf_spatial, 2, 32);
+    range(out, "mrt.lf_dir", m.lf_dir, 2, 64);
+    range(out, "mrt.lf_super", m.lf_super, 1, 8);
+    range(out, "mrt.interface_enrich", m.interface_enrich, 0, 8);
+    range(out, "mrt.response_rays", m.response_rays, 16, 65536);
     if let Some(o) = &m.output {
         if !plain_file_name(o) {
             out.push(issue("mrt.output", format!("{o:?} must be a plain file name (no directories)")));
