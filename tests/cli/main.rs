@@ -6,6 +6,7 @@ mod bake;
 mod compat;
 mod inspect;
 mod mrt;
+mod mrt_level;
 mod runtime;
 mod shadows;
 mod spheres;

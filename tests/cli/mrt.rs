@@ -4,7 +4,7 @@ use serde_json::Value;
 
 /// Small, fast settings (the thesis settings are exercised by crates/transport's tests and
 /// by `make bench`).
-const SMALL: &[&str] = &[
+pub const SMALL: &[&str] = &[
     "--face-res",
     "4",
     "--rays",

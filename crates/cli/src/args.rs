@@ -33,8 +33,16 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Run every stage of a bake config (only the stages whose inputs changed).
     Bake(BakeArgs),
-    /// Print the JSON Schema of the bake config.
-    Schema,
+    /// Print the JSON Schema of the bake config (or, with --level, of the MRT level file).
+    Schema(SchemaArgs),
+}
+
+/// `penumbra schema`.
+#[derive(Debug, clap::Args)]
+pub struct SchemaArgs {
+    /// The schema of the MRT level file (`penumbra mrt level`) instead.
+    #[arg(long)]
+    pub level: bool,
 }
 
 fn parse_tolerance(s: &str) -> Result<f64, String> {

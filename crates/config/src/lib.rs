@@ -7,10 +7,12 @@
 //! Paths inside a config are relative to the directory of the config file.
 
 mod error;
+pub mod level;
 mod types;
 mod validate;
 
 pub use error::{ConfigError, ConfigErrorKind};
+pub use level::{LevelFile, level_schema_json, load_level};
 pub use types::{BakeConfig, MrtStage, SphereMethod, SpheresStage, TablesStage};
 pub use validate::{Issue, validate};
 

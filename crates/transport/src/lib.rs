@@ -23,6 +23,8 @@ pub mod balance;
 pub mod dict;
 pub mod gather;
 pub mod interface;
+pub mod level;
+pub mod level_ops;
 pub mod lightfield;
 pub mod operators;
 pub mod prior;
@@ -43,4 +45,7 @@ pub enum TransportError {
     /// The asset could not be built.
     #[error("cannot build the MRTD asset: {0}")]
     Asset(String),
+    /// An input asset (a dictionary read back by the level bake) is unusable.
+    #[error("{0}")]
+    Input(String),
 }

@@ -3,6 +3,7 @@
 pub mod bake;
 pub mod inspect;
 pub mod mrt;
+pub mod mrt_level;
 pub mod spheres;
 pub mod tables;
 
@@ -21,8 +22,8 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Mrt(a) => mrt::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
-        Command::Schema => {
-            print!("{}", penumbra_config::schema_json());
+        Command::Schema(a) => {
+            print!("{}", if a.level { penumbra_config::level_schema_json() } else { penumbra_config::schema_json() });
             Ok(ExitCode::Ok)
         }
     }

@@ -1,5 +1,5 @@
 //! `penumbra mrt …`: Modular Radiance Transfer bakes. `mrt dict` bakes a dictionary (MRT
-//! thesis ch. 3–4, App. A–B); `mrt level` (block layouts, §3.5.3) comes next.
+//! thesis ch. 3–4, App. A–B); `mrt level` (block layouts, §3.5.3) is in `mrt_level.rs`.
 
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
@@ -31,6 +31,9 @@ pub enum MrtCommand {
     /// Bake an MRT dictionary: light prior, one-bounce transport, U_b, T_d→b, vector
     /// irradiance, volume probes, enrichment (MRT thesis ch. 3–4, App. A–B).
     Dict(MrtDictArgs),
+    /// Bake a level's operators: T_b→r by breadth-first propagation through the block
+    /// layout's interfaces, and the padded light-map atlas (MRT thesis §3.5.3, §4.3, §4.6).
+    Level(crate::commands::mrt_level::MrtLevelArgs),
 }
 
 /// Dictionaries (`--dictionary`).
@@ -364,6 +367,7 @@ pub fn bake_to(p: &DictParams, output: &Path, mode: ProgressMode) -> Result<Dict
 pub fn run(a: &MrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     match &a.command {
         MrtCommand::Dict(d) => run_dict(d, mode),
+        MrtCommand::Level(l) => crate::commands::mrt_level::run(l),
     }
 }
 

@@ -1,0 +1,100 @@
+//! `penumbra mrt level` and `penumbra verify mrt` (MRT thesis §3.5.3, §3.6.3, §4.3–4.6).
+
+use crate::mrt::SMALL;
+use crate::{penumbra, run};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// A small cube2d dictionary with interfaces (SMALL settings) in `dir`.
+pub fn small_dict(dir: &Path) -> PathBuf {
+    let out = dir.join("d.mrtd");
+    let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(SMALL).arg("-o").arg(&out));
+    assert_eq!(code, 0, "{stderr}");
+    out
+}
+
+fn level_json(args: &[&str], dict: &Path, out: &Path) -> Value {
+    let (code, stdout, stderr) =
+        run(penumbra().args(["mrt", "level"]).args(args).arg("--dict").arg(dict).arg("-o").arg(out).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).expect("one JSON object")
+}
+
+#[test]
+fn maze_level_keys_round_trip_and_determinism() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("m.mrtl");
+    let toml = dir.path().join("m.toml");
+    let v = level_json(&["--maze", "12", "--seed", "3", "--write-level", toml.to_str().unwrap()], &d, &out);
+    for k in ["blocks", "block_pairs", "records", "bytes", "seconds", "atlas", "pad_records", "max_depth"] {
+        assert!(v.get(k).is_some(), "missing {k}");
+    }
+    assert_eq!(v["blocks"], 12);
+    // a tree maze of 12 blocks: every ordered pair within 8 interfaces of each other
+    let pairs = v["block_pairs"].as_u64().unwrap();
+    assert!(pairs > 11 * 2 && pairs <= 12 * 11, "{pairs}");
+    assert_eq!(v["bytes"].as_u64().unwrap(), std::fs::metadata(&out).unwrap().len());
+    let a = penumbra_asset::AssetFile::open(&out).unwrap();
+    assert_eq!(a.asset().kind().as_str(), "MRTL");
+    let recs = a.asset().section("t_b2r").unwrap().dims().to_vec();
+    assert_eq!(recs, vec![v["records"].as_u64().unwrap() as usize, 8, 12]);
+    // the written level file bakes to the same bytes, with any thread count
+    let again = dir.path().join("again.mrtl");
+    let (code, _, stderr) =
+        run(penumbra().args(["--threads", "1", "mrt", "level"]).arg(&toml).arg("--dict").arg(&d).arg("-o").arg(&again));
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+    // depth 0: no light between blocks
+    let v0 = level_json(&["--maze", "12", "--seed", "3", "--max-depth", "0"], &d, &dir.path().join("z.mrtl"));
+    assert_eq!(v0["block_pairs"], 0);
+}
+
+#[test]
+fn bad_levels_and_old_dictionaries_are_clean_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("x.mrtl");
+    let cases = [
+        ("[[block]]\nshape = \"torus\"\ntranslation = [0, 0, 0]\n", "block 0: shape \"torus\""),
+        (
+            "[[block]]\nshape = \"dead_end\"\ntranslation = [0.5, 0.5, 0.5]\n[[block]]\nshape = \"dead_end\"\n\
+             rotation = 2\ntranslation = [0.5, 0.5, 1.75]\n[[connection]]\na = 0\na_face = \"+z\"\nb = 1\nb_face = \"+z\"\n",
+            "do not coincide",
+        ),
+        (
+            "[[block]]\nshape = \"dead_end\"\ntranslation = [0.5, 0.5, 0.5]\n[[connection]]\na = 0\na_face = \"+z\"\nb = 3\nb_face = \"-z\"\n",
+            "block 3 does not exist",
+        ),
+        ("[[block]]\nshape = \"closed\"\ntranslation = [0, 0, 0]\nrotation = 7\n", "0..=3"),
+        ("[[block]]\nshape = \"closed\"\ntranslaton = [0, 0, 0]\n", "translaton"),
+    ];
+    for (body, what) in cases {
+        let f = dir.path().join("bad.toml");
+        std::fs::write(&f, body).unwrap();
+        let (code, _, stderr) =
+            run(penumbra().args(["mrt", "level"]).arg(&f).arg("--dict").arg(&d).arg("-o").arg(&out));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains("bad.toml") && stderr.contains(what), "{what}: {stderr}");
+        assert!(!out.exists());
+    }
+    // the v1 corpus dictionary has no interfaces: a clear error, not a crash
+    let v1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets/v1/mrt-cube2d-r4.mrtd");
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "level", "--maze", "3", "--dict"]).arg(&v1).arg("-o").arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("kind_version 1"), "{stderr}");
+    // exactly one level source
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "level", "--maze", "3", "--corridor", "4", "--dict"]).arg(&d).arg("-o").arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+}
+
+#[test]
+fn committed_level_schema_is_current() {
+    let (code, stdout, _) = run(penumbra().args(["schema", "--level"]));
+    assert_eq!(code, 0);
+    let committed = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schemas/mrt-level.schema.json"))
+        .expect("schemas/mrt-level.schema.json (run `make schemas`)");
+    assert_eq!(stdout, committed, "schemas/mrt-level.schema.json is stale: run `make schemas`");
+}
