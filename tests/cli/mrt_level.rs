@@ -98,3 +98,37 @@ fn committed_level_schema_is_current() {
         .expect("schemas/mrt-level.schema.json (run `make schemas`)");
     assert_eq!(stdout, committed, "schemas/mrt-level.schema.json is stale: run `make schemas`");
 }
+
+#[test]
+fn verify_corridor_interfaces_beat_none_and_report_every_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let png = dir.path().join("top.png");
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "mrt", "--corridor", "5", "--rays", "256", "--bounces", "4", "--dict"])
+        .arg(&d)
+        .arg("--image")
+        .arg(&png)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    for k in ["rel_error_one_bounce", "rel_error_multi_bounce", "ms_runtime", "rel_error_one_bounce_no_interfaces"] {
+        let x = v[k].as_f64().unwrap_or_else(|| panic!("{k}"));
+        assert!(x.is_finite() && x > 0.0, "{k} = {x}");
+    }
+    assert_eq!(v["per_block"].as_array().unwrap().len(), 5);
+    let with = v["rel_error_one_bounce"].as_f64().unwrap();
+    let without = v["rel_error_one_bounce_no_interfaces"].as_f64().unwrap();
+    // the light sits in block 0: without interfaces the other four blocks get nothing
+    assert!(with < 0.5 * without, "{with} vs {without}");
+    assert!(with < 0.2 && v["rel_error_multi_bounce"].as_f64().unwrap() < 0.3, "{v}");
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // a light outside every block is a clean error
+    let lights = dir.path().join("l.toml");
+    std::fs::write(&lights, "[[light]]\nposition = [9.0, 0.5, 0.5]\n").unwrap();
+    let (code, _, stderr) =
+        run(penumbra().args(["verify", "mrt", "--corridor", "3", "--dict"]).arg(&d).arg("--lights").arg(&lights));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("l.toml") && stderr.contains("light 0"), "{stderr}");
+}

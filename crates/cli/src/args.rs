@@ -33,6 +33,8 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Run every stage of a bake config (only the stages whose inputs changed).
     Bake(BakeArgs),
+    /// Accuracy of baked assets against brute-force references (`verify mrt`).
+    Verify(crate::commands::verify::VerifyArgs),
     /// Print the JSON Schema of the bake config (or, with --level, of the MRT level file).
     Schema(SchemaArgs),
 }

@@ -10,6 +10,7 @@ pub mod commands;
 pub mod env_light;
 pub mod exit;
 pub mod fsutil;
+pub mod png;
 pub mod progress;
 
 pub use exit::{CliError, ExitCode};

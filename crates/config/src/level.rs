@@ -58,6 +58,37 @@ pub struct LevelConnection {
     pub b_face: String,
 }
 
+/// Point lights for `penumbra verify mrt --lights FILE`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LightsFile {
+    /// The lights.
+    #[serde(default, rename = "light")]
+    pub lights: Vec<LevelLight>,
+}
+
+/// A point light inside the level.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LevelLight {
+    /// World position (inside a block).
+    pub position: [f64; 3],
+    /// Intensity: irradiance at unit distance, normal incidence (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intensity: Option<f64>,
+}
+
+/// Reads and parses a lights file.
+pub fn load_lights(path: &Path) -> Result<LightsFile, ConfigError> {
+    let source = std::fs::read_to_string(path).map_err(|e| ConfigError::io(path, e))?;
+    let de = toml::de::Deserializer::parse(&source).map_err(|e| ConfigError::syntax(path, &source, &e))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        let inner = e.into_inner();
+        ConfigError::field(path, &source, key, &inner)
+    })
+}
+
 fn is_zero(x: &u32) -> bool {
     *x == 0
 }

@@ -5,8 +5,11 @@
 //!   exponentials HYB/OL/PS*-p).
 //! - [`shadows`]: soft shadows from sphere proxies at a receiver (log accumulation,
 //!   self-shadow replacement rules, exponentiation, windowed diffuse shading).
+//! - [`mrt`]: Modular Radiance Transfer: indirect light of a level of dictionary blocks from
+//!   direct light at their texels (`MRTD` + `MRTL`), one or many bounces, padded atlas.
 
 mod error;
+pub mod mrt;
 pub mod sh;
 pub mod shadows;
 mod tables;

@@ -48,6 +48,8 @@ pub struct DictOps {
     pub t_rlf2r: Mat<f64>,
     /// CRC-32C of the dictionary file (ties a level to its dictionary).
     pub crc32c: u32,
+    /// The albedo the dictionary was baked with (`params.albedo`).
+    pub albedo: f64,
 }
 
 fn aerr(m: impl core::fmt::Display) -> TransportError {
@@ -116,7 +118,8 @@ impl DictOps {
         let r_turn = [read_mat(a, "iface.r_straight")?, read_mat(a, "iface.r_left")?, read_mat(a, "iface.r_right")?];
         let t_rlf2r = read_mat(a, "iface.t_rlf2r")?;
         let crc32c = penumbra_asset::crc32c(a.bytes());
-        Ok(Self { names, missing, k_b, face_res, r_b2rlf, r_turn, t_rlf2r, crc32c })
+        let albedo = meta["params"]["albedo"].as_f64().unwrap_or(1.0);
+        Ok(Self { names, missing, k_b, face_res, r_b2rlf, r_turn, t_rlf2r, crc32c, albedo })
     }
 
     /// Largest `k_b`.
@@ -476,6 +479,7 @@ mod tests {
             r_turn: [rnd(krlf, krlf, 100), rnd(krlf, krlf, 101), rnd(krlf, krlf, 102)],
             t_rlf2r: rnd(kr, krlf, 103),
             crc32c: 0,
+            albedo: 1.0,
         }
     }
 

@@ -25,6 +25,7 @@ pub mod gather;
 pub mod interface;
 pub mod level;
 pub mod level_ops;
+pub mod level_reference;
 pub mod lightfield;
 pub mod operators;
 pub mod prior;

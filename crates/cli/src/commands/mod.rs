@@ -6,6 +6,7 @@ pub mod mrt;
 pub mod mrt_level;
 pub mod spheres;
 pub mod tables;
+pub mod verify;
 
 use crate::args::{Cli, Command};
 use crate::exit::{CliError, ExitCode};
@@ -22,6 +23,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Mrt(a) => mrt::run(&a, cli.progress),
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
+        Command::Verify(a) => verify::run(&a, cli.progress),
         Command::Schema(a) => {
             print!("{}", if a.level { penumbra_config::level_schema_json() } else { penumbra_config::schema_json() });
             Ok(ExitCode::Ok)
