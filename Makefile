@@ -21,6 +21,7 @@ bench:
 	$(CARGO) bench --bench tables
 	$(CARGO) bench --bench spheres
 	$(CARGO) bench --bench mrt
+	$(CARGO) bench --bench mrt_level
 
 # The README's first command: bake the demo config.
 demo:

@@ -132,3 +132,34 @@ fn verify_corridor_interfaces_beat_none_and_report_every_key() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("l.toml") && stderr.contains("light 0"), "{stderr}");
 }
+
+#[test]
+fn bake_config_mrt_level_stage_bakes_then_skips_and_validates() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let mrt = "[mrt]\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\nvector_rays = 64\nvolume_res = 2\nprobe_rays = 64\n\
+               test_lights = 3\nreference_rays = 128\nlf_spatial = 4\nlf_dir = 6\nlf_super = 2\nk_rlf = 24\nk_r = 8\n\
+               response_rays = 64\n";
+    std::fs::write(&cfg, format!("output_dir = \"out\"\n{mrt}[mrt_level]\nmaze = 6\nseed = 2\n")).unwrap();
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let st = v["stages"].as_array().unwrap().iter().find(|s| s["name"] == "mrt_level").unwrap().clone();
+    assert_eq!(st["status"], "baked");
+    assert_eq!(st["kind"], "MRTL");
+    assert_eq!(st["metrics"]["blocks"], 6);
+    let (_, stdout, _) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["stages"].as_array().unwrap().iter().all(|s| s["status"] == "up-to-date"), "{v}");
+    for (body, what) in [
+        ("[mrt_level]\nmaze = 3\n".to_string(), "needs the [mrt] stage"),
+        (format!("{mrt}[mrt_level]\nmaze = 3\nlevel = \"l.toml\"\n"), "exactly one of"),
+        (format!("{mrt}[mrt_level]\nmaze = 0\n"), "mrt_level.maze"),
+        (format!("{mrt}interfaces = false\n[mrt_level]\nmaze = 3\n"), "mrt.interfaces"),
+    ] {
+        std::fs::write(&cfg, format!("output_dir = \"out2\"\n{body}")).unwrap();
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(what), "{what}: {stderr}");
+    }
+}

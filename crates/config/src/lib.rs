@@ -13,7 +13,7 @@ mod validate;
 
 pub use error::{ConfigError, ConfigErrorKind};
 pub use level::{LevelFile, level_schema_json, load_level};
-pub use types::{BakeConfig, MrtStage, SphereMethod, SpheresStage, TablesStage};
+pub use types::{BakeConfig, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage};
 pub use validate::{Issue, validate};
 
 use std::path::{Path, PathBuf};

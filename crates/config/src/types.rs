@@ -19,13 +19,16 @@ pub struct BakeConfig {
     /// MRT dictionary (`penumbra mrt dict`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mrt: Option<MrtStage>,
+    /// MRT level operators (`penumbra mrt level`) with the `[mrt]` stage's dictionary.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mrt_level: Option<MrtLevelStage>,
 }
 
 impl BakeConfig {
     /// Whether the config names at least one stage. Every stage added to the config is
     /// listed here.
     pub fn has_stage(&self) -> bool {
-        self.tables.is_some() || !self.spheres.is_empty() || self.mrt.is_some()
+        self.tables.is_some() || !self.spheres.is_empty() || self.mrt.is_some() || self.mrt_level.is_some()
     }
 }
 
@@ -215,5 +218,34 @@ impl MrtStage {
     /// Output file name.
     pub fn output_name(&self) -> &str {
         self.output.as_deref().unwrap_or("dictionary.mrtd")
+    }
+}
+
+/// The `[mrt_level]` stage: the level operators of a block layout (MRT thesis §3.5.3, §4.3,
+/// §4.6) with the dictionary of the `[mrt]` stage. Give `level` or `maze`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MrtLevelStage {
+    /// Level file (TOML, schemas/mrt-level.schema.json), relative to this config.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
+    /// A random connected 2D maze of this many blocks instead of a level file, 1..=4096.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maze: Option<u32>,
+    /// Seed of the maze (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Depth limit of the propagation (interfaces crossed), 0..=64 (default 8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_depth: Option<u32>,
+    /// Output file name inside `output_dir` (default `level.mrtl`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+}
+
+impl MrtLevelStage {
+    /// The output file name.
+    pub fn output_name(&self) -> &str {
+        self.output.as_deref().unwrap_or("level.mrtl")
     }
 }

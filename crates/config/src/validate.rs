@@ -96,6 +96,9 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     if let Some(m) = &c.mrt {
         validate_mrt(m, &mut out);
     }
+    if let Some(l) = &c.mrt_level {
+        validate_mrt_level(l, c.mrt.as_ref(), &mut out);
+    }
     if !c.has_stage() {
         out.push(issue("stages", "the config names no stage to bake (add a stage table such as [tables] or [mrt])"));
     }
@@ -167,6 +170,36 @@ fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     if let Some(o) = &m.output {
         if !plain_file_name(o) {
             out.push(issue("mrt.output", format!("{o:?} must be a plain file name (no directories)")));
+        }
+    }
+}
+
+fn validate_mrt_level(l: &crate::types::MrtLevelStage, mrt: Option<&crate::types::MrtStage>, out: &mut Vec<Issue>) {
+    match mrt {
+        None => out.push(issue("mrt_level", "[mrt_level] needs the [mrt] stage (its dictionary)")),
+        Some(m) if m.interfaces == Some(false) => {
+            out.push(issue("mrt.interfaces", "[mrt_level] needs a dictionary with interfaces (interfaces = true)"))
+        }
+        Some(m) if m.dictionary.as_deref() == Some("closed-cube") => out.push(issue(
+            "mrt.dictionary",
+            "[mrt_level] needs the cube2d dictionary (the closed cube has no interfaces)",
+        )),
+        _ => {}
+    }
+    match (&l.level, l.maze) {
+        (Some(_), Some(_)) | (None, None) => out.push(issue("mrt_level", "give exactly one of `level` or `maze`")),
+        _ => {}
+    }
+    for (key, v, lo, hi) in [("mrt_level.maze", l.maze, 1, 4096), ("mrt_level.max_depth", l.max_depth, 0, 64)] {
+        if let Some(v) = v {
+            if !(lo..=hi).contains(&v) {
+                out.push(issue(key, format!("{v} is out of range (allowed: {lo}..={hi})")));
+            }
+        }
+    }
+    if let Some(o) = &l.output {
+        if !plain_file_name(o) {
+            out.push(issue("mrt_level.output", format!("{o:?} must be a plain file name (no directories)")));
         }
     }
 }

@@ -143,17 +143,26 @@ pub fn resolve(file: Option<&Path>, src: &LevelSource, d: &DictOps) -> Result<(L
     Ok((level, links, what))
 }
 
-/// Bakes a level's operators; returns the bake and the asset bytes.
-pub fn bake(level: &Level, links: &Links, d: &DictOps, max_depth: usize) -> Result<(LevelBake, Vec<u8>), CliError> {
+/// Bakes a level's operators; returns the bake and the asset bytes. `key` is the cache key
+/// recorded in `meta` (default: a hash of the level, the dictionary and the depth).
+pub fn bake(
+    level: &Level,
+    links: &Links,
+    d: &DictOps,
+    max_depth: usize,
+    key: Option<String>,
+) -> Result<(LevelBake, Vec<u8>), CliError> {
     let b = bake_level(level, links, d, max_depth).map_err(|e| CliError::input(anyhow!("{e}")))?;
     let lf = serde_json::to_value(to_file(level, &d.names)).map_err(CliError::internal)?;
-    let key = blake3::hash(
-        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "mrt_level", "level": lf, "dict": d.crc32c, "max_depth": max_depth})
-            .to_string()
-            .as_bytes(),
-    )
-    .to_hex()
-    .to_string();
+    let key = key.unwrap_or_else(|| {
+        blake3::hash(
+            json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "mrt_level", "level": lf, "dict": d.crc32c, "max_depth": max_depth})
+                .to_string()
+                .as_bytes(),
+        )
+        .to_hex()
+        .to_string()
+    });
     let asset = to_asset(level, links, d, &b, lf, Some(&key)).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
     Ok((b, bytes))
@@ -170,7 +179,7 @@ pub fn run(a: &MrtLevelArgs) -> Result<ExitCode, CliError> {
         crate::fsutil::write_atomic_text(w, &to_file(&level, &d.names).to_toml())
             .with_context(|| format!("cannot write {}", w.display()))?;
     }
-    let (b, bytes) = bake(&level, &links, &d, a.max_depth as usize)?;
+    let (b, bytes) = bake(&level, &links, &d, a.max_depth as usize, None)?;
     ensure_parent(&a.output)?;
     penumbra_asset::write_file_atomic(&a.output, &bytes)
         .with_context(|| format!("cannot write {}", a.output.display()))?;

@@ -141,7 +141,7 @@ fn run_mrt(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             .collect(),
     };
     // the level operators, through the asset bytes the runtime reads
-    let (lb, bytes) = bake(&level, &links, &d, a.max_depth as usize)?;
+    let (lb, bytes) = bake(&level, &links, &d, a.max_depth as usize, None)?;
     let level_asset = penumbra_asset::OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
     let dict_file = AssetFile::open(&a.dict).with_context(|| format!("cannot open {}", a.dict.display()))?;
     let dict_asset: Asset<'_> = dict_file.asset();
