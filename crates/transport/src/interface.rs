@@ -140,8 +140,42 @@ pub fn side_openings(shape: &Shape) -> Vec<usize> {
     shape.missing_faces().into_iter().filter(|&f| face_axis(f).0 != 1).collect()
 }
 
-/// The sparse resampling from a shape's texel values to the lightfield leaving through
-/// `face`: `L = (ρ/π)·l(wall seen)` averaged over each cell's supersamples.
+/// The lightfield leaving `tex`'s shape through `face` for the texel values in the columns
+/// of `l` (n × k, row-major): `L = (ρ/π)·l(wall seen)` averaged over each cell's supersamples
+/// (bilinear texel reads; an opening gives 0). Returns `m × k`, row-major. Rows are
+/// independent (parallel in fixed chunks); each row sums in a fixed order.
+pub fn wall_lightfield_apply(tex: &Texels, face: usize, grid: LfGrid, albedo: f64, l: &[f64], k: usize) -> Vec<f64> {
+    let frame = IfaceFrame::outgoing(face);
+    let q2 = grid.sub * grid.sub;
+    let w = albedo / core::f64::consts::PI / q2 as f64;
+    let dirs: Vec<[f64; 3]> = grid.sub_directions().iter().map(|&d| frame.world(d)).collect();
+    let d2 = grid.dir * grid.dir;
+    let mut out = vec![0.0; grid.len() * k];
+    out.par_chunks_mut(k * 64).enumerate().for_each(|(c, block)| {
+        for (q, dst) in block.chunks_mut(k).enumerate() {
+            let row = c * 64 + q;
+            let (sp, dk) = (row / d2, row % d2);
+            let (ir, iy) = (sp % grid.spatial, sp / grid.spatial);
+            let (r, y) = grid.spatial_pos(ir, iy);
+            let p = frame.point(r, y);
+            for om in &dirs[dk * q2..(dk + 1) * q2] {
+                let Some((g, u, v)) = cast(tex, p, [-om[0], -om[1], -om[2]]) else { continue };
+                for (t, bw) in tex.bilinear(g, u, v) {
+                    if bw != 0.0 {
+                        let src = &l[t * k..(t + 1) * k];
+                        let a = w * bw;
+                        for (o, s) in dst.iter_mut().zip(src) {
+                            *o += a * s;
+                        }
+                    }
+                }
+            }
+        }
+    });
+    out
+}
+
+/// The same resampling as a sparse matrix (m × n), for tests and inspection.
 pub fn wall_lightfield(tex: &Texels, face: usize, grid: LfGrid, albedo: f64) -> Csr {
     let frame = IfaceFrame::outgoing(face);
     let w = albedo / core::f64::consts::PI / (grid.sub * grid.sub) as f64;
@@ -169,15 +203,16 @@ pub fn wall_lightfield(tex: &Texels, face: usize, grid: LfGrid, albedo: f64) -> 
 pub fn propagation(grid: LfGrid, turn: Turn) -> Csr {
     let fb = IfaceFrame::outgoing(turn.canonical_exit());
     let fa = IfaceFrame::incoming(CANONICAL_ENTRY);
-    let w = 1.0 / (grid.sub * grid.sub) as f64;
+    let q2n = grid.sub * grid.sub;
+    let w = 1.0 / q2n as f64;
+    let dirs: Vec<[f64; 3]> = grid.sub_directions().iter().map(|&d| fb.world(d)).collect();
+    let d2 = grid.dir * grid.dir;
     Csr::build(grid.len(), grid.len(), |k, out| {
-        let (ir, iy, j1, j2) = grid.coords(k);
+        let (ir, iy) = ((k / d2) % grid.spatial, (k / d2) / grid.spatial);
         let (r, y) = grid.spatial_pos(ir, iy);
         let p = fb.point(r, y);
-        for q2 in 0..grid.sub {
-            for q1 in 0..grid.sub {
-                let (s1, s2) = grid.sub_square(j1, j2, q1, q2);
-                let om = fb.world(square_to_dir(s1, s2));
+        {
+            for &om in &dirs[(k % d2) * q2n..(k % d2 + 1) * q2n] {
                 let back = [-om[0], -om[1], -om[2]];
                 let (g, t) = exit_face(p, back);
                 if g != CANONICAL_ENTRY {
@@ -281,53 +316,41 @@ fn from_row_major(v: &[f64], r: usize, c: usize) -> Mat<f64> {
     Mat::from_fn(r, c, |i, j| v[i * c + j])
 }
 
-/// `‖(I − UUᵀ)X‖/‖X‖` for orthonormal `U`: `√(1 − ‖UᵀX‖²/‖X‖²)`.
-fn outside_rel(u: MatRef<'_, f64>, x: MatRef<'_, f64>) -> f64 {
-    let nx = frobenius(x);
-    if nx == 0.0 {
-        return 0.0;
+/// Copies a row-major `m × c` block into columns `c0..c0+c` of `x`.
+fn put_columns(x: &mut Mat<f64>, c0: usize, v: &[f64], c: usize) {
+    for i in 0..x.nrows() {
+        for j in 0..c {
+            x[(i, c0 + j)] = v[i * c + j];
+        }
     }
-    let p = frobenius(gram_tn(u, x).as_ref());
-    (1.0 - (p / nx).powi(2)).max(0.0).sqrt()
 }
 
-/// Leading `k` left singular vectors of the column blocks `[w_i X_i]` (Gram of the blocks,
-/// assembled blockwise): `U` (m × k) and the singular values.
-fn basis_of_blocks(blocks: &[(MatRef<'_, f64>, f64)], k: usize) -> Result<(Mat<f64>, Vec<f64>), TransportError> {
-    let sizes: Vec<usize> = blocks.iter().map(|(b, _)| b.ncols()).collect();
-    let total: usize = sizes.iter().sum();
-    let offs: Vec<usize> = sizes
-        .iter()
-        .scan(0, |a, &s| {
-            let o = *a;
-            *a += s;
-            Some(o)
-        })
-        .collect();
-    let mut g = Mat::<f64>::zeros(total, total);
-    for (i, (bi, wi)) in blocks.iter().enumerate() {
-        for (j, (bj, wj)) in blocks.iter().enumerate().skip(i) {
-            let gij = gram_tn(*bi, *bj);
-            for c in 0..sizes[j] {
-                for r in 0..sizes[i] {
-                    let v = gij[(r, c)] * wi * wj;
-                    g[(offs[i] + r, offs[j] + c)] = v;
-                    g[(offs[j] + c, offs[i] + r)] = v;
-                }
-            }
+/// Leading `k` left singular vectors of `X W` (`W = diag(w)`, one weight per column) and all
+/// its singular values, from the eigen-decomposition of `W XᵀX W` (one chunked Gram of the
+/// whole tall matrix, `u_i = X W v_i / σ_i`).
+fn basis_weighted(x: MatRef<'_, f64>, w: &[f64], k: usize) -> Result<(Mat<f64>, Vec<f64>), TransportError> {
+    let n = x.ncols();
+    let mut g = gram_tn(x, x);
+    for j in 0..n {
+        for i in 0..n {
+            g[(i, j)] *= w[i] * w[j];
         }
     }
     let (vals, vecs) = sym_eigen(g.as_ref())?;
     let sigma: Vec<f64> = vals.iter().map(|&l| l.max(0.0).sqrt()).collect();
     let k = k.min(crate::svd::numerical_rank(&sigma, 1e-7));
-    let m = blocks.first().map_or(0, |(b, _)| b.nrows());
-    let mut u = Mat::<f64>::zeros(m, k);
-    for (i, (bi, wi)) in blocks.iter().enumerate() {
-        let vi = Mat::from_fn(sizes[i], k, |r, c| vecs[(offs[i] + r, c)] * wi / sigma[c]);
-        u += mul_tall(*bi, vi.as_ref());
-    }
+    let v = Mat::from_fn(n, k, |r, c| vecs[(r, c)] * w[r] / sigma[c]);
+    let mut u = mul_tall(x, v.as_ref());
     crate::svd::canonical_columns(&mut u);
     Ok((u, sigma))
+}
+
+/// `‖(I − UUᵀ)X‖/‖X‖` from `UᵀX` and `‖X‖`, for orthonormal `U`.
+fn outside_from(utx: MatRef<'_, f64>, norm_x: f64) -> f64 {
+    if norm_x == 0.0 {
+        return 0.0;
+    }
+    (1.0 - (frobenius(utx) / norm_x).powi(2)).max(0.0).sqrt()
 }
 
 /// Bakes the interface operators of the shapes (the dictionary's, in order), for a
@@ -359,32 +382,41 @@ pub fn bake_interfaces(
         done += 1;
         progress.update("interfaces", done, steps);
     };
-    // 1. raw lightfields, one block of k_b columns per interface
-    let mut raw: Vec<Mat<f64>> = Vec::with_capacity(list.len());
-    for &(s, f) in &list {
-        let tex = shapes[s].texels;
+    // 1. raw lightfields H_lf, one block of k_b columns per interface, side by side
+    let widths: Vec<usize> = list.iter().map(|&(s, _)| shapes[s].reduced.l_imp.ncols()).collect();
+    let offs: Vec<usize> = widths
+        .iter()
+        .scan(0, |a, &w| {
+            let o = *a;
+            *a += w;
+            Some(o)
+        })
+        .collect();
+    let total: usize = widths.iter().sum();
+    let mut h_all = Mat::<f64>::zeros(m, total);
+    for (i, &(s, f)) in list.iter().enumerate() {
         let l = to_row_major(shapes[s].reduced.l_imp.as_ref());
-        let kb = shapes[s].reduced.l_imp.ncols();
-        let h = wall_lightfield(tex, f, grid, albedo).apply(&l, kb);
-        raw.push(from_row_major(&h, m, kb));
+        let h = wall_lightfield_apply(shapes[s].texels, f, grid, albedo, &l, widths[i]);
+        put_columns(&mut h_all, offs[i], &h, widths[i]);
         tick(progress);
     }
-    // 2. eq. 4.1: per-element scale
+    // 2. eq. 4.1: per-element scale of its columns
     let sums: Vec<f64> = sigma_m.iter().map(|s| s.iter().map(|x| x * x).sum()).collect();
-    let total: f64 = sums.iter().sum();
+    let sum_total: f64 = sums.iter().sum();
     let scale: Vec<f64> =
-        sums.iter().map(|&e| if e > 0.0 { (total / (e * sums.len() as f64)).sqrt() } else { 0.0 }).collect();
+        sums.iter().map(|&e| if e > 0.0 { (sum_total / (e * sums.len() as f64)).sqrt() } else { 0.0 }).collect();
+    let col_w: Vec<f64> = list.iter().zip(&widths).flat_map(|(&(s, _), &w)| std::iter::repeat_n(scale[s], w)).collect();
     // 3. basis of the normalised H_lf
-    let blocks: Vec<(MatRef<'_, f64>, f64)> =
-        list.iter().zip(&raw).map(|(&(s, _), h)| (h.as_ref(), scale[s])).collect();
-    let (mut u, sigma_lf) = basis_of_blocks(&blocks, p.k_rlf)?;
+    let (mut u, sigma_lf) = basis_weighted(h_all.as_ref(), &col_w, p.k_rlf)?;
     tick(progress);
-    let h_norm2: f64 = blocks.iter().map(|(b, w)| (frobenius(*b) * w).powi(2)).sum();
-    let captured = |u: MatRef<'_, f64>| -> f64 {
-        let inside: f64 = blocks.iter().map(|(b, w)| (frobenius(gram_tn(u, *b).as_ref()) * w).powi(2)).sum();
+    let col_norm2: Vec<f64> = (0..total).map(|j| h_all.col(j).iter().map(|x| x * x).sum::<f64>()).collect();
+    let h_norm2: f64 = col_norm2.iter().zip(&col_w).map(|(n, w)| n * w * w).sum();
+    // share of the normalised H_lf outside the basis, from UᵀH
+    let captured = |uth: MatRef<'_, f64>| -> f64 {
+        let inside: f64 = (0..total).map(|j| uth.col(j).iter().map(|x| x * x).sum::<f64>() * col_w[j] * col_w[j]).sum();
         (1.0 - inside / h_norm2).max(0.0).sqrt()
     };
-    let lf_before = captured(u.as_ref());
+    let lf_before = captured(gram_tn(u.as_ref(), h_all.as_ref()).as_ref());
     let k0 = u.ncols();
     let energy: f64 = sigma_lf.iter().map(|x| x * x).sum();
     let lightfield_energy_captured = sigma_lf[..k0].iter().map(|x| x * x).sum::<f64>() / energy.max(f64::MIN_POSITIVE);
@@ -392,26 +424,33 @@ pub fn bake_interfaces(
     let props: Vec<Csr> = Turn::ALL.par_iter().map(|&t| propagation(grid, t)).collect();
     tick(progress);
     let scaled = |u: &Mat<f64>, s: &[f64]| Mat::from_fn(u.nrows(), u.ncols(), |i, j| u[(i, j)] * s[j]);
-    let propagate = |h: &Mat<f64>| -> Vec<Mat<f64>> {
+    let propagate = |h: &Mat<f64>| -> Vec<Vec<f64>> {
         let x = to_row_major(h.as_ref());
-        props.iter().map(|pr| from_row_major(&pr.apply(&x, h.ncols()), m, h.ncols())).collect()
+        props.iter().map(|pr| pr.apply(&x, h.ncols())).collect()
     };
+    let norm_rm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let mut prop_before = [0.0; 3];
     // 3b. enrichment (App. A): [H_rlf, L_temp] at unit Frobenius norm each
     for it in 0..p.enrich {
+        let k = u.ncols();
         let a = scaled(&u, &sig);
         let lt = propagate(&a);
+        let mut x = Mat::<f64>::zeros(m, 4 * k);
+        x.as_mut().subcols_mut(0, k).copy_from(a.as_ref());
+        for (i, l) in lt.iter().enumerate() {
+            put_columns(&mut x, (i + 1) * k, l, k);
+        }
         if it == 0 {
-            for (e, x) in prop_before.iter_mut().zip(&lt) {
-                *e = outside_rel(u.as_ref(), x.as_ref());
+            let utx = gram_tn(u.as_ref(), x.as_ref());
+            for (i, e) in prop_before.iter_mut().enumerate() {
+                *e = outside_from(utx.as_ref().subcols((i + 1) * k, k), norm_rm(&lt[i]));
             }
         }
         tick(progress);
         let na = frobenius(a.as_ref());
-        let nb = lt.iter().map(|x| frobenius(x.as_ref()).powi(2)).sum::<f64>().sqrt();
-        let mut bl: Vec<(MatRef<'_, f64>, f64)> = vec![(a.as_ref(), 1.0 / na)];
-        bl.extend(lt.iter().map(|x| (x.as_ref(), 1.0 / nb.max(f64::MIN_POSITIVE))));
-        let (nu, ns) = basis_of_blocks(&bl, p.k_rlf)?;
+        let nb = lt.iter().map(|l| norm_rm(l).powi(2)).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
+        let w: Vec<f64> = (0..4 * k).map(|j| if j < k { 1.0 / na } else { 1.0 / nb }).collect();
+        let (nu, ns) = basis_weighted(x.as_ref(), &w, p.k_rlf)?;
         // keep the basis on the lightfields' physical scale
         sig = ns[..nu.ncols()].iter().map(|x| x * na).collect();
         u = nu;
@@ -419,30 +458,32 @@ pub fn bake_interfaces(
     }
     let k = u.ncols();
     let h_rlf = scaled(&u, &sig);
-    let lightfield_rel_error = captured(u.as_ref());
     // 4. operators in the coordinates c = Σ̃⁻¹Ũᵀh
-    let project = |x: MatRef<'_, f64>| -> Mat<f64> {
-        let g = gram_tn(u.as_ref(), x);
-        Mat::from_fn(k, x.ncols(), |i, j| g[(i, j)] / sig[i])
-    };
+    let uth = gram_tn(u.as_ref(), h_all.as_ref());
+    let lightfield_rel_error = captured(uth.as_ref());
+    let coords = |utx: MatRef<'_, f64>| Mat::from_fn(k, utx.ncols(), |i, j| utx[(i, j)] / sig[i]);
     let mut interfaces = Vec::with_capacity(list.len());
-    for (&(s, f), h) in list.iter().zip(&raw) {
+    for (i, &(s, f)) in list.iter().enumerate() {
         interfaces.push(ShapeInterface {
             shape: s,
             face: f,
-            r_b2rlf: project(h.as_ref()),
+            r_b2rlf: coords(uth.as_ref().subcols(offs[i], widths[i])),
             u_r_index: u_r_index(shapes[s].texels, f),
         });
     }
+    drop(h_all);
     let lt = propagate(&h_rlf);
     let mut propagation_rel_error = [0.0; 3];
-    for (e, x) in propagation_rel_error.iter_mut().zip(&lt) {
-        *e = outside_rel(u.as_ref(), x.as_ref());
+    let mut r_turn: Vec<Mat<f64>> = Vec::with_capacity(3);
+    for (i, l) in lt.iter().enumerate() {
+        let utl = gram_tn(u.as_ref(), from_row_major(l, m, k).as_ref());
+        propagation_rel_error[i] = outside_from(utl.as_ref(), norm_rm(l));
+        r_turn.push(coords(utl.as_ref()));
     }
     if p.enrich == 0 {
         prop_before = propagation_rel_error;
     }
-    let r_turn: [Mat<f64>; 3] = [project(lt[0].as_ref()), project(lt[1].as_ref()), project(lt[2].as_ref())];
+    let r_turn: [Mat<f64>; 3] = [r_turn[0].clone(), r_turn[1].clone(), r_turn[2].clone()];
     tick(progress);
     // response: G = F_rlf H_rlf, U_r, T_rlf→r
     let x = to_row_major(h_rlf.as_ref());
@@ -500,6 +541,18 @@ mod tests {
         let h = wall_lightfield(&tex, 5, SMALL, 1.0).apply(&vec![1.0; tex.len()], 1);
         assert!(h.iter().all(|&v| (-1e-12..=1.0 / core::f64::consts::PI + 1e-12).contains(&v)));
         assert!(h.iter().any(|&v| v < 0.5 / core::f64::consts::PI));
+    }
+
+    #[test]
+    fn direct_lightfield_application_equals_the_sparse_operator() {
+        let tex = Texels::new(CUBE2D[4], 4);
+        let k = 3;
+        let l: Vec<f64> = (0..tex.len() * k).map(|i| ((i * 37) % 11) as f64 * 0.1).collect();
+        for f in side_openings(&CUBE2D[4]) {
+            let a = wall_lightfield(&tex, f, SMALL, 0.6).apply(&l, k);
+            let b = wall_lightfield_apply(&tex, f, SMALL, 0.6, &l, k);
+            assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12), "face {f}");
+        }
     }
 
     #[test]

@@ -75,6 +75,23 @@ impl LfGrid {
         ((j1 as f64 + (q1 as f64 + 0.5) / q) / d, (j2 as f64 + (q2 as f64 + 0.5) / q) / d)
     }
 
+    /// Local directions of every supersample, indexed `(j₂·D + j₁)·Q² + q₂·Q + q₁` (the
+    /// concentric map evaluated once per grid instead of once per spatial node).
+    pub fn sub_directions(&self) -> Vec<[f64; 3]> {
+        let mut v = Vec::with_capacity(self.dir * self.dir * self.sub * self.sub);
+        for j2 in 0..self.dir {
+            for j1 in 0..self.dir {
+                for q2 in 0..self.sub {
+                    for q1 in 0..self.sub {
+                        let (s1, s2) = self.sub_square(j1, j2, q1, q2);
+                        v.push(square_to_dir(s1, s2));
+                    }
+                }
+            }
+        }
+        v
+    }
+
     /// The 16 `(sample, weight)` taps of a continuous lookup at `(r, y)`, square `(s₁, s₂)`.
     #[inline]
     pub fn taps(&self, r: f64, y: f64, s1: f64, s2: f64) -> [(usize, f64); 16] {
