@@ -163,3 +163,54 @@ fn bake_config_mrt_level_stage_bakes_then_skips_and_validates() {
         assert!(stderr.contains(what), "{what}: {stderr}");
     }
 }
+
+#[test]
+fn runtime_places_texels_in_the_padded_atlas_and_adds_light_only_through_records() {
+    use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("l.mrtl");
+    level_json(&["--l-turn", "1", "--max-depth", "1"], &d, &out);
+    let df = penumbra_asset::AssetFile::open(&d).unwrap();
+    let lf = penumbra_asset::AssetFile::open(&out).unwrap();
+    let (da, la) = (df.asset(), lf.asset());
+    let rd = MrtDictionary::from_asset(&da).unwrap();
+    let rl = MrtLevel::from_asset(&la, &rd).unwrap();
+    let r2 = rd.face_texels;
+    let r = (r2 as f64).sqrt() as usize;
+    let tiles: Vec<u32> = rl.tiles.to_vec();
+    let (w, h) = rl.atlas;
+    let mut rt = MrtRuntime::new(rd, rl);
+    let n = rt.texel_count();
+    let offsets = rt.offsets().to_vec();
+    // texel values that name their block and texel
+    let vals: Vec<f32> = (0..n).map(|i| i as f32).collect();
+    let mut atlas = vec![-1.0f32; w * h];
+    rt.pad_atlas(&vals, &mut atlas);
+    for t in tiles.chunks_exact(4) {
+        let (b, f, x0, y0) = (t[0] as usize, t[1] as u8, t[2] as usize, t[3] as usize);
+        let sh = &rt.dictionary().shapes[rt.level().shapes[b]];
+        let slot = sh.faces.iter().position(|&x| x == f).unwrap();
+        for j in 0..r {
+            for i in 0..r {
+                let want = (offsets[b] + slot * r2 + j * r + i) as f32;
+                assert_eq!(atlas[(y0 + 1 + j) * w + x0 + 1 + i], want);
+            }
+        }
+        // every border pixel is written
+        for i in 0..r + 2 {
+            for (x, y) in [(x0 + i, y0), (x0 + i, y0 + r + 1), (x0, y0 + i), (x0 + r + 1, y0 + i)] {
+                assert!(atlas[y * w + x] >= 0.0, "tile {t:?} border ({x},{y})");
+            }
+        }
+    }
+    // light in block 0 only: with depth 1 the interfaces light block 1 and nothing else
+    let mut l_d = vec![0.0f32; n];
+    l_d[offsets[0]..offsets[1]].iter_mut().for_each(|v| *v = 1.0);
+    let (mut with, mut without) = (vec![0.0f32; n], vec![0.0f32; n]);
+    rt.indirect(&l_d, &mut with, true);
+    rt.indirect(&l_d, &mut without, false);
+    let diff = |b: usize| (offsets[b]..offsets[b + 1]).map(|i| (with[i] - without[i]).abs()).fold(0.0f32, f32::max);
+    assert!(without[offsets[1]..].iter().all(|&v| v == 0.0));
+    assert!(diff(1) > 0.0 && diff(0) == 0.0 && diff(2) == 0.0);
+}

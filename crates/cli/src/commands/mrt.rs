@@ -443,6 +443,20 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             m["enrichment_rel_error_before"].as_f64().unwrap_or(f64::NAN),
             m["enrichment_rel_error_after"].as_f64().unwrap_or(f64::NAN),
         );
+        if let Some(im) = m["interface_metrics"].as_object() {
+            eprintln!(
+                "  interfaces: {} openings, k_rlf {}, k_r {} in {:.2} s; lightfield outside H_rlf {:.3}, propagated outside {:.3}/{:.3}/{:.3}, response outside U_r {:.3}",
+                m["interfaces"].as_array().map_or(0, Vec::len),
+                m["k_rlf"],
+                m["k_r"],
+                out.interface_seconds,
+                im["lightfield_rel_error"].as_f64().unwrap_or(f64::NAN),
+                im["propagation_rel_error"][0].as_f64().unwrap_or(f64::NAN),
+                im["propagation_rel_error"][1].as_f64().unwrap_or(f64::NAN),
+                im["propagation_rel_error"][2].as_f64().unwrap_or(f64::NAN),
+                im["response_rel_error"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
         if let Some(shapes) = m["shapes"].as_object() {
             for (name, s) in shapes {
                 eprintln!(
