@@ -124,6 +124,26 @@ fn verify_corridor_interfaces_beat_none_and_report_every_key() {
     assert!(with < 0.2 && v["rel_error_multi_bounce"].as_f64().unwrap() < 0.3, "{v}");
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // the baked level asset verifies to the same figures as the level it came from
+    let asset = dir.path().join("c5.mrtl");
+    level_json(&["--corridor", "5"], &d, &asset);
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "mrt", "--rays", "256", "--bounces", "4", "--dict"])
+        .arg(&d)
+        .arg("--level")
+        .arg(&asset)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let w: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(w["rel_error_one_bounce"], v["rel_error_one_bounce"]);
+    assert_eq!(w["block_pairs"], v["block_pairs"]);
+    // … and only with its own dictionary
+    let other = dir.path().join("other.mrtd");
+    let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(SMALL).args(["--seed", "5", "-o"]).arg(&other));
+    assert_eq!(code, 0, "{stderr}");
+    let (code, _, stderr) = run(penumbra().args(["verify", "mrt", "--dict"]).arg(&other).arg("--level").arg(&asset));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("another dictionary"), "{stderr}");
     // a light outside every block is a clean error
     let lights = dir.path().join("l.toml");
     std::fs::write(&lights, "[[light]]\nposition = [9.0, 0.5, 0.5]\n").unwrap();

@@ -114,6 +114,15 @@ pub fn from_file(f: &LevelFile, names: &[String], path: &Path) -> Result<Level, 
     Ok(Level { blocks, connections })
 }
 
+/// A parsed level file, resolved and validated against the dictionary (`path` names it in
+/// errors).
+pub fn validated(f: &LevelFile, path: &Path, d: &DictOps) -> Result<(Level, Links), CliError> {
+    let level = from_file(f, &d.names, path)?;
+    let links =
+        level.validate(&d.names, &d.missing).map_err(|e| CliError::input(anyhow!("{}: {e}", path.display())))?;
+    Ok((level, links))
+}
+
 /// Resolves the level (file or procedural) and validates it against the dictionary.
 pub fn resolve(file: Option<&Path>, src: &LevelSource, d: &DictOps) -> Result<(Level, Links, String), CliError> {
     let procedural = [src.maze.is_some(), src.corridor.is_some(), src.l_turn.is_some()].iter().filter(|&&x| x).count();

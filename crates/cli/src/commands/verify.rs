@@ -1,7 +1,7 @@
 //! `penumbra verify …`: accuracy of baked assets against the brute-force references.
 //! `verify mrt`: the MRT runtime on a level against a path tracer on the same blocks.
 
-use crate::commands::mrt_level::{LevelSource, bake, load_dict, resolve};
+use crate::commands::mrt_level::{LevelSource, bake, load_dict, resolve, validated};
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::ensure_parent;
@@ -11,6 +11,7 @@ use clap::{Args, Subcommand};
 use penumbra_asset::{Asset, AssetFile};
 use penumbra_math::progress::Progress;
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+use penumbra_transport::level::{Level, Links};
 use penumbra_transport::level_reference::{LevelGeometry, PointLight, direct_at, level_texels, reference};
 use serde_json::json;
 use std::path::PathBuf;
@@ -36,7 +37,8 @@ pub enum VerifyCommand {
 /// `penumbra verify mrt`.
 #[derive(Debug, Args)]
 pub struct VerifyMrtArgs {
-    /// Level file (TOML). Omit with --maze/--corridor/--l-turn.
+    /// The level: a level file (TOML) or a baked level asset (.mrtl, verified as it is, with
+    /// the dictionary it was baked with). Omit with --maze/--corridor/--l-turn.
     #[arg(long)]
     pub level: Option<PathBuf>,
     /// The dictionary (.mrtd, with interfaces).
@@ -113,7 +115,47 @@ fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
 fn run_mrt(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let start = Instant::now();
     let d = load_dict(&a.dict)?;
-    let (level, links, what) = resolve(a.level.as_deref(), &a.source, &d)?;
+    // a baked MRTL asset: its own level and operators (checked against the dictionary)
+    let mut baked: Option<(Vec<u8>, usize)> = None;
+    let mut from_asset: Option<(Level, Links, String)> = None;
+    if let Some(p) = &a.level {
+        let bytes = std::fs::read(p).with_context(|| format!("cannot read level {}", p.display()))?;
+        if bytes.starts_with(b"PENUMBRA") {
+            let asset = penumbra_asset::OwnedAsset::parse(&bytes)
+                .map_err(|e| CliError::input(anyhow!("{}: {e}", p.display())))?;
+            let at = asset.asset();
+            if at.kind().as_str() != "MRTL" {
+                return Err(CliError::input(anyhow!(
+                    "{}: a {} asset, not an MRT level (MRTL)",
+                    p.display(),
+                    at.kind().as_str()
+                )));
+            }
+            let meta: serde_json::Value = serde_json::from_str(at.meta_json()).map_err(CliError::internal)?;
+            if meta["dictionary"]["crc32c"].as_str() != Some(format!("{:08x}", d.crc32c).as_str()) {
+                return Err(CliError::input(anyhow!(
+                    "{} was baked with another dictionary (CRC-32C {}), not {} ({:08x})",
+                    p.display(),
+                    meta["dictionary"]["crc32c"],
+                    a.dict.display(),
+                    d.crc32c
+                )));
+            }
+            if a.source.maze.is_some() || a.source.corridor.is_some() || a.source.l_turn.is_some() {
+                return Err(CliError::input(anyhow!("give either --level or --maze/--corridor/--l-turn, not both")));
+            }
+            let lf: penumbra_config::LevelFile = serde_json::from_value(meta["level"].clone())
+                .map_err(|e| CliError::input(anyhow!("{}: meta.level: {e}", p.display())))?;
+            let (level, links) = validated(&lf, p, &d)?;
+            let depth = meta["params"]["max_depth"].as_u64().unwrap_or(8) as usize;
+            from_asset = Some((level, links, p.display().to_string()));
+            baked = Some((bytes, depth));
+        }
+    }
+    let (level, links, what) = match from_asset {
+        Some(x) => x,
+        None => resolve(a.level.as_deref(), &a.source, &d)?,
+    };
     let geo = LevelGeometry { level: &level, links: &links, missing: &d.missing };
     let lights: Vec<PointLight> = match &a.lights {
         Some(p) => {
@@ -141,14 +183,24 @@ fn run_mrt(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             .collect(),
     };
     // the level operators, through the asset bytes the runtime reads
-    let (lb, bytes) = bake(&level, &links, &d, a.max_depth as usize, None)?;
+    let (max_depth, bytes) = match baked {
+        Some((bytes, depth)) => (depth, bytes),
+        None => (a.max_depth as usize, bake(&level, &links, &d, a.max_depth as usize, None)?.1),
+    };
     let level_asset = penumbra_asset::OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
     let dict_file = AssetFile::open(&a.dict).with_context(|| format!("cannot open {}", a.dict.display()))?;
     let dict_asset: Asset<'_> = dict_file.asset();
     let rd =
         MrtDictionary::from_asset(&dict_asset).map_err(|e| CliError::input(anyhow!("{}: {e}", a.dict.display())))?;
     let la = level_asset.asset();
-    let rl = MrtLevel::from_asset(&la, &rd).map_err(CliError::internal)?;
+    let rl = MrtLevel::from_asset(&la, &rd).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+    let block_pairs = {
+        let mut p: Vec<(u32, u32)> = rl.records.iter().map(|r| (r.dst, r.src)).collect();
+        p.dedup();
+        p.sort_unstable();
+        p.dedup();
+        p.len()
+    };
     let mut rt = MrtRuntime::new(rd, rl);
     let tex = level_texels(&level, &d.missing, d.face_res);
     if tex.texels.len() != rt.texel_count() {
@@ -202,8 +254,8 @@ fn run_mrt(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         "albedo": a.albedo,
         "bounces": a.bounces,
         "rays": a.rays,
-        "max_depth": a.max_depth,
-        "block_pairs": lb.metrics.block_pairs,
+        "max_depth": max_depth,
+        "block_pairs": block_pairs,
         "rel_error_one_bounce": rel(&one, &r.one_bounce),
         "rel_error_one_bounce_no_interfaces": rel(&none, &r.one_bounce),
         "rel_error_multi_bounce": rel(&multi, &r.multi_bounce),
