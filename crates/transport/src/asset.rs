@@ -114,10 +114,6 @@ pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
     })
 }
 
-fn p_exclude(b: &DictBake) -> bool {
-    b.params.exclude_same_face
-}
-
 /// Builds the asset.
 pub fn to_asset(b: &DictBake, cache_key: Option<&str>) -> Result<AssetBuilder, TransportError> {
     let mut a = AssetBuilder::new(Kind::MRTD);
@@ -159,7 +155,7 @@ pub fn to_asset(b: &DictBake, cache_key: Option<&str>) -> Result<AssetBuilder, T
         a.add_f32("iface.sigma_rlf", &[ib.sigma_rlf.len()], &f32s(ib.sigma_rlf.iter().copied())).map_err(err)?;
         a.add_f32("iface.sigma_g", &[ib.sigma_g.len()], &f32s(ib.sigma_g.iter().copied())).map_err(err)?;
         // bit 0: the same-face exclusion runtime rule (params.exclude_same_face)
-        a.add_u32("iface.flags", &[1], &[u32::from(p_exclude(b))]).map_err(err)?;
+        a.add_u32("iface.flags", &[1], &[u32::from(b.params.exclude_same_face)]).map_err(err)?;
         for i in &ib.interfaces {
             let name = b.shapes[i.shape].texels.shape.name;
             let [rn, xn] = interface_section_names(name, i.face);

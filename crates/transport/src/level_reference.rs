@@ -59,9 +59,9 @@ fn add(p: [f64; 3], t: f64, d: [f64; 3]) -> [f64; 3] {
 }
 
 impl LevelGeometry<'_> {
-    /// Follows a ray from `p` (inside or on the boundary of block `b`) along `d` (world):
-    /// the first wall it hits, `None` when it leaves the level. With `t_max`, stops (returns
-    /// `Err(())`-like `None` via [`Self::segment_clear`]) at that parameter.
+    /// Follows a ray from `p` (inside or on the boundary of block `b`) along `d` (world) up
+    /// to the parameter `t_max`: the first wall it hits, `Reached` when `t_max` comes first,
+    /// `Lost` when it leaves the level through an unconnected opening.
     fn walk(&self, mut b: usize, mut p: [f64; 3], d: [f64; 3], t_max: f64) -> Walk {
         let mut travelled = 0.0;
         for _ in 0..4 * self.level.blocks.len() + 4 {
