@@ -23,6 +23,7 @@ bench:
 	$(CARGO) bench --bench mrt
 	$(CARGO) bench --bench shadows
 	$(CARGO) bench --bench fiv
+	$(CARGO) bench --bench mrt_level
 
 # The README's first command: bake the demo config.
 demo:
@@ -31,6 +32,7 @@ demo:
 # Regenerate the committed JSON Schema (a test fails when it is stale).
 schemas:
 	$(CARGO) run --release -- schema > schemas/bake-config.schema.json
+	$(CARGO) run --release -- schema --level > schemas/mrt-level.schema.json
 
 # Fuzz the asset loader (needs cargo-fuzz; installs it). FUZZ_SECONDS=60 by default.
 fuzz:

@@ -17,7 +17,9 @@ fn mrt(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(60)).warm_up_time(Duration::from_secs(1));
     for (name, kind) in [("cube2d_thesis", DictionaryKind::Cube2d), ("closed_cube_thesis", DictionaryKind::ClosedCube)]
     {
-        let p = DictParams::new(kind);
+        // without interfaces: the issue-6 figure (interfaces: benches/mrt_level.rs)
+        let mut p = DictParams::new(kind);
+        p.interfaces = false;
         g.bench_function(name, |b| b.iter(|| bake(&p, &NoProgress).map(|d| d.metrics.table_3_2.f)));
     }
     g.finish();

@@ -63,15 +63,48 @@ fn corpus_v1_still_loads() {
                     .map(|s| s["name"].as_str().unwrap().to_string())
                     .collect();
                 let names: Vec<&str> = names.iter().map(String::as_str).collect();
-                let known = penumbra_transport::asset::section_names(&names);
+                let ifaces: Vec<(String, usize)> = meta["interfaces"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|i| {
+                        let f = penumbra_transport::level::parse_face(i["face"].as_str().unwrap()).unwrap();
+                        (i["shape"].as_str().unwrap().to_string(), f)
+                    })
+                    .collect();
+                let ifaces: Vec<(&str, usize)> = ifaces.iter().map(|(s, f)| (s.as_str(), *f)).collect();
+                let known = penumbra_transport::asset::section_names_v2(&names, &ifaces);
                 let known: Vec<&str> = known.iter().map(String::as_str).collect();
                 a.require_known(&known).unwrap();
+                if !ifaces.is_empty() {
+                    // kind_version 2: the runtime reads the interface operators
+                    let d = penumbra_runtime::mrt::MrtDictionary::from_asset(&a).unwrap();
+                    assert_eq!(d.shapes.len(), names.len());
+                }
                 for (s, shape) in names.iter().zip(meta["shapes"].as_array().unwrap()) {
                     let n = shape["texels"].as_u64().unwrap() as usize;
                     let kb = shape["k_b"].as_u64().unwrap() as usize;
                     assert_eq!(a.section(&format!("{s}.u_b")).unwrap().dims(), &[n, kb]);
                     assert_eq!(a.section(&format!("{s}.t_d2b")).unwrap().dims(), &[kb, n]);
                 }
+            }
+            "MRTL" => {
+                a.require_known(penumbra_transport::level_ops::MRTL_SECTIONS).unwrap();
+                // its dictionary is in the corpus too (matched by CRC-32C)
+                let crc = meta["dictionary"]["crc32c"].as_str().unwrap().to_string();
+                let dict = std::fs::read_dir(dir)
+                    .unwrap()
+                    .map(|e| e.unwrap().path())
+                    .find(|p| {
+                        p.extension().is_some_and(|x| x == "mrtd")
+                            && format!("{:08x}", penumbra_asset::crc32c(&std::fs::read(p).unwrap())) == crc
+                    })
+                    .expect("the level's dictionary is in the corpus");
+                let df = AssetFile::open(&dict).unwrap();
+                let da = df.asset();
+                let d = penumbra_runtime::mrt::MrtDictionary::from_asset(&da).unwrap();
+                let l = penumbra_runtime::mrt::MrtLevel::from_asset(&a, &d).unwrap();
+                assert_eq!(l.shapes.len() as u64, meta["metrics"]["blocks"].as_u64().unwrap());
             }
             other => panic!("no compatibility check for kind {other}"),
         }

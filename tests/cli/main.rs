@@ -7,6 +7,7 @@ mod compat;
 mod fiv;
 mod inspect;
 mod mrt;
+mod mrt_level;
 mod runtime;
 mod shadows;
 mod spheres;

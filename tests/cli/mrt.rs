@@ -4,7 +4,7 @@ use serde_json::Value;
 
 /// Small, fast settings (the thesis settings are exercised by crates/transport's tests and
 /// by `make bench`).
-const SMALL: &[&str] = &[
+pub const SMALL: &[&str] = &[
     "--face-res",
     "4",
     "--rays",
@@ -23,6 +23,18 @@ const SMALL: &[&str] = &[
     "3",
     "--reference-rays",
     "128",
+    "--lf-spatial",
+    "4",
+    "--lf-dir",
+    "6",
+    "--lf-super",
+    "2",
+    "--k-rlf",
+    "24",
+    "--k-r",
+    "8",
+    "--response-rays",
+    "64",
 ];
 
 fn dict_json(extra: &[&str], out: &std::path::Path) -> Value {
@@ -48,6 +60,10 @@ fn json_keys_are_present_and_honest() {
         "bytes",
         "seconds",
         "output",
+        "interfaces",
+        "k_rlf",
+        "k_r",
+        "interface_seconds",
     ] {
         assert!(v.get(key).is_some(), "missing key {key}");
     }
@@ -73,6 +89,22 @@ fn json_keys_are_present_and_honest() {
     assert_eq!(v["bytes"].as_u64().unwrap(), std::fs::metadata(&out).unwrap().len());
     assert!(v["seconds"].as_f64().unwrap() > 0.0);
     assert_eq!(v["output"].as_str().unwrap(), out.display().to_string());
+    // interfaces: the thesis's 12 openings, their operators in the asset (MRTD kind version 2)
+    assert_eq!(v["interfaces"].as_array().unwrap().len(), 12);
+    assert_eq!(v["k_rlf"], 24);
+    assert_eq!(v["k_r"], 8);
+    let is = v["interface_seconds"].as_f64().unwrap();
+    assert!(is > 0.0 && is < v["seconds"].as_f64().unwrap());
+    let file = AssetFile::open(&out).unwrap();
+    let a = file.asset();
+    let dims = |s: &str| a.section(s).unwrap().dims().to_vec();
+    assert_eq!(dims("iface.r_straight"), vec![24, 24]);
+    assert_eq!(dims("iface.u_r"), vec![5 * 16, 8]);
+    assert_eq!(dims("iface.t_rlf2r"), vec![8, 24]);
+    assert_eq!(dims("cross.r_b2rlf.pz"), vec![24, 12]);
+    assert_eq!(dims("tee.u_r_idx.nx"), vec![3 * 16]); // floor, ceiling, −z
+    let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
+    assert_eq!(meta["interfaces"][0], serde_json::json!({"shape": "dead_end", "face": "+z"}));
 }
 
 #[test]
@@ -84,7 +116,10 @@ fn asset_holds_every_section_and_its_operators_reproduce_a_known_answer() {
     let a = file.asset();
     assert_eq!(a.kind().as_str(), "MRTD");
     let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
-    assert_eq!(meta["kind_version"], 1);
+    assert_eq!(meta["kind_version"], 2);
+    // the closed cube has no interfaces: a version-2 asset without interface sections
+    assert_eq!(meta["interfaces"], serde_json::json!([]));
+    assert!(a.section("iface.u_r").is_none());
     assert_eq!(meta["shapes"][0]["name"], "closed");
     assert_eq!(meta["metrics"]["table_3_2"], v["table_3_2"]);
     let known = penumbra_transport::asset::section_names(&["closed"]);
@@ -163,7 +198,8 @@ fn bake_config_mrt_stage_bakes_then_skips_and_validates_keys() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("scene.toml");
     let body = "output_dir = \"out\"\n[mrt]\ndictionary = \"closed-cube\"\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\n\
-                vector_rays = 64\nvolume_res = 2\nprobe_rays = 64\ntest_lights = 3\nreference_rays = 128\n";
+                vector_rays = 64\nvolume_res = 2\nprobe_rays = 64\ntest_lights = 3\nreference_rays = 128\n\
+                lf_spatial = 4\nlf_dir = 6\nlf_super = 2\nk_rlf = 24\nk_r = 8\nresponse_rays = 64\n";
     std::fs::write(&cfg, body).unwrap();
     let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
     assert_eq!(code, 0, "{stderr}");

@@ -40,8 +40,16 @@ pub enum Command {
     Verify(VerifyArgs),
     /// Run one bake over a grid of its knobs and plot error against cost.
     Sweep(SweepArgs),
-    /// Print the JSON Schema of the bake config.
-    Schema,
+    /// Print the JSON Schema of the bake config (or, with --level, of the MRT level file).
+    Schema(SchemaArgs),
+}
+
+/// `penumbra schema`.
+#[derive(Debug, clap::Args)]
+pub struct SchemaArgs {
+    /// The schema of the MRT level file (`penumbra mrt level`) instead.
+    #[arg(long)]
+    pub level: bool,
 }
 
 fn parse_tolerance(s: &str) -> Result<f64, String> {
@@ -316,6 +324,9 @@ pub enum VerifyCommand {
     Shadows(crate::commands::verify_shadows::VerifyShadowsArgs),
     /// FIV shadows (runtime) against brute-force ray-traced irradiance (FIV §5).
     Fiv(VerifyFivArgs),
+    /// MRT runtime (dictionary + level operators) against a path tracer on the same blocks:
+    /// relative error of indirect light, one bounce and multi-bounce (MRT thesis §3.6).
+    Mrt(crate::commands::verify_mrt::VerifyMrtArgs),
 }
 
 /// Partial-occluder handling at run time (FIV §4.3.1).

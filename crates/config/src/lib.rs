@@ -7,11 +7,15 @@
 //! Paths inside a config are relative to the directory of the config file.
 
 mod error;
+pub mod level;
 mod types;
 mod validate;
 
 pub use error::{ConfigError, ConfigErrorKind};
-pub use types::{BakeConfig, EnvRotate, FivStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis};
+pub use level::{LevelFile, level_schema_json, load_level};
+pub use types::{
+    BakeConfig, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis,
+};
 pub use validate::{Issue, validate};
 
 use std::path::{Path, PathBuf};

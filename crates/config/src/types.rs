@@ -22,13 +22,20 @@ pub struct BakeConfig {
     /// FIV occlusion textures, one `[[fiv]]` table per occluder (`penumbra fiv`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fiv: Vec<FivStage>,
+    /// MRT level operators (`penumbra mrt level`) with the `[mrt]` stage's dictionary.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mrt_level: Option<MrtLevelStage>,
 }
 
 impl BakeConfig {
     /// Whether the config names at least one stage. Every stage added to the config is
     /// listed here.
     pub fn has_stage(&self) -> bool {
-        self.tables.is_some() || !self.spheres.is_empty() || !self.fiv.is_empty() || self.mrt.is_some()
+        self.tables.is_some()
+            || !self.spheres.is_empty()
+            || !self.fiv.is_empty()
+            || self.mrt.is_some()
+            || self.mrt_level.is_some()
     }
 }
 
@@ -240,6 +247,30 @@ pub struct MrtStage {
     /// Seed of every hashed random draw (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
+    /// Bake the interface operators (default true; needed by `[mrt_level]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interfaces: Option<bool>,
+    /// Reduced lightfield modes, 1..=512 (default 128).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_rlf: Option<u32>,
+    /// Interface response modes, 1..=k_rlf (default 32).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_r: Option<u32>,
+    /// Lightfield spatial samples per interface edge, 2..=32 (default 12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf_spatial: Option<u32>,
+    /// Lightfield directional samples per square edge, 2..=64 (default 24).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf_dir: Option<u32>,
+    /// Directional supersamples per cell edge, 1..=8 (default 5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf_super: Option<u32>,
+    /// Enrichment iterations of the lightfield basis, 0..=8 (default 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interface_enrich: Option<u32>,
+    /// Cosine gather rays per texel of the interface response, 16..=65536 (default 1024).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub response_rays: Option<u32>,
     /// Output file name inside `output_dir` (default `dictionary.mrtd`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
@@ -274,5 +305,34 @@ impl FivStage {
         let base = self.mesh.strip_prefix("builtin:").unwrap_or(&self.mesh);
         let stem = std::path::Path::new(base).file_stem().map(|s| s.to_string_lossy().into_owned());
         format!("{}.fivt", stem.filter(|s| !s.is_empty()).unwrap_or_else(|| "occluder".into()))
+    }
+}
+
+/// The `[mrt_level]` stage: the level operators of a block layout (MRT thesis §3.5.3, §4.3,
+/// §4.6) with the dictionary of the `[mrt]` stage. Give `level` or `maze`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MrtLevelStage {
+    /// Level file (TOML, schemas/mrt-level.schema.json), relative to this config.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
+    /// A random connected 2D maze of this many blocks instead of a level file, 1..=4096.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maze: Option<u32>,
+    /// Seed of the maze (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Depth limit of the propagation (interfaces crossed), 0..=64 (default 8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_depth: Option<u32>,
+    /// Output file name inside `output_dir` (default `level.mrtl`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+}
+
+impl MrtLevelStage {
+    /// The output file name.
+    pub fn output_name(&self) -> &str {
+        self.output.as_deref().unwrap_or("level.mrtl")
     }
 }

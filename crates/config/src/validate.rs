@@ -147,6 +147,9 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     if let Some(m) = &c.mrt {
         validate_mrt(m, &mut out);
     }
+    if let Some(l) = &c.mrt_level {
+        validate_mrt_level(l, c.mrt.as_ref(), &mut out);
+    }
     if !c.has_stage() {
         out.push(issue(
             "stages",
@@ -211,9 +214,46 @@ fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     range(out, "mrt.probe_rays", m.probe_rays, 16, 65536);
     range(out, "mrt.test_lights", m.test_lights, 1, 64);
     range(out, "mrt.reference_rays", m.reference_rays, 2, 65536);
+    range(out, "mrt.k_rlf", m.k_rlf, 1, 512);
+    range(out, "mrt.k_r", m.k_r, 1, m.k_rlf.unwrap_or(128).max(1));
+    range(out, "mrt.lf_spatial", m.lf_spatial, 2, 32);
+    range(out, "mrt.lf_dir", m.lf_dir, 2, 64);
+    range(out, "mrt.lf_super", m.lf_super, 1, 8);
+    range(out, "mrt.interface_enrich", m.interface_enrich, 0, 8);
+    range(out, "mrt.response_rays", m.response_rays, 16, 65536);
     if let Some(o) = &m.output {
         if !plain_file_name(o) {
             out.push(issue("mrt.output", format!("{o:?} must be a plain file name (no directories)")));
+        }
+    }
+}
+
+fn validate_mrt_level(l: &crate::types::MrtLevelStage, mrt: Option<&crate::types::MrtStage>, out: &mut Vec<Issue>) {
+    match mrt {
+        None => out.push(issue("mrt_level", "[mrt_level] needs the [mrt] stage (its dictionary)")),
+        Some(m) if m.interfaces == Some(false) => {
+            out.push(issue("mrt.interfaces", "[mrt_level] needs a dictionary with interfaces (interfaces = true)"))
+        }
+        Some(m) if m.dictionary.as_deref() == Some("closed-cube") => out.push(issue(
+            "mrt.dictionary",
+            "[mrt_level] needs the cube2d dictionary (the closed cube has no interfaces)",
+        )),
+        _ => {}
+    }
+    match (&l.level, l.maze) {
+        (Some(_), Some(_)) | (None, None) => out.push(issue("mrt_level", "give exactly one of `level` or `maze`")),
+        _ => {}
+    }
+    for (key, v, lo, hi) in [("mrt_level.maze", l.maze, 1, 4096), ("mrt_level.max_depth", l.max_depth, 0, 64)] {
+        if let Some(v) = v {
+            if !(lo..=hi).contains(&v) {
+                out.push(issue(key, format!("{v} is out of range (allowed: {lo}..={hi})")));
+            }
+        }
+    }
+    if let Some(o) = &l.output {
+        if !plain_file_name(o) {
+            out.push(issue("mrt_level.output", format!("{o:?} must be a plain file name (no directories)")));
         }
     }
 }

@@ -23,6 +23,8 @@ pub enum RuntimeError {
         /// What is wrong.
         reason: String,
     },
+    /// An asset that cannot be used, with the reason (sections named at run time).
+    Invalid(String),
 }
 
 impl fmt::Display for RuntimeError {
@@ -32,6 +34,7 @@ impl fmt::Display for RuntimeError {
             RuntimeError::WrongKind { expected, found } => write!(f, "expected a {expected} asset, found {found}"),
             RuntimeError::MissingSection(n) => write!(f, "required section {n:?} is missing"),
             RuntimeError::BadSection { name, reason } => write!(f, "section {name:?}: {reason}"),
+            RuntimeError::Invalid(m) => write!(f, "{m}"),
         }
     }
 }

@@ -5,15 +5,18 @@
 //!   exponentials HYB/OL/PS*-p).
 //! - [`shadows`]: soft shadows from sphere proxies at a receiver (log accumulation,
 //!   self-shadow replacement rules, exponentiation, windowed diffuse shading, indirect light
-//!   from proxies, hierarchy cuts with ratio vectors).
+//!   from proxies, hierarchy cuts with ratio vectors, receiver batches).
 //! - [`SphereSet`]: a validated view of an `SPHR` sphere-proxy asset (leaves, hierarchy, skin)
 //!   and its cut for a receiver cluster (SHEXP §6.3, eq. 36).
 //! - [`fiv`]: soft shadows from FIV occlusion tables (`FIVT`): irradiance cube lookup,
 //!   trilinear FIV lookup with inside flags, partial occluders, overlap correction,
 //!   self-shadowing (FIV §4.3).
+//! - [`mrt`]: Modular Radiance Transfer: indirect light of a level of dictionary blocks from
+//!   direct light at their texels (`MRTD` + `MRTL`), one or many bounces, padded atlas.
 
 mod error;
 pub mod fiv;
+pub mod mrt;
 pub mod sh;
 pub mod shadows;
 pub mod sphere_set;

@@ -1,9 +1,10 @@
 //! Writes a [`DictBake`] as an `MRTD` asset (sections documented in
 //! `schemas/asset-format.md`, "MRTD").
 //!
-//! Per-shape sections are named `<shape>.<section>` (e.g. `closed.u_b`) so that later
-//! kind versions can add interface sections (`<shape>.r_b2rlf.<face>`, shared `u_r`, …)
-//! without renaming anything.
+//! Per-shape sections are named `<shape>.<section>` (e.g. `closed.u_b`). Kind version 2 adds
+//! the interface operators (MRT thesis §3.4.1, §4.2) as optional sections: shared `iface.*`
+//! and per interface `<shape>.r_b2rlf.<face>`, `<shape>.u_r_idx.<face>`. A version-1 asset is
+//! a version-2 asset without interfaces.
 
 use crate::TransportError;
 use crate::dict::{DictBake, MRTD_KIND_VERSION};
@@ -15,11 +16,45 @@ use serde_json::json;
 pub const SHAPE_SECTIONS: &[&str] =
     &["faces", "positions", "normals", "u_b", "t_d2b", "u_bvec", "probes", "u_bvol", "sigma_d", "prior_s", "sigma_m"];
 
+/// Shared interface sections (kind version 2), in file order.
+pub const INTERFACE_SECTIONS: &[&str] = &[
+    "iface.r_straight",
+    "iface.r_left",
+    "iface.r_right",
+    "iface.u_r",
+    "iface.t_rlf2r",
+    "iface.sigma_rlf",
+    "iface.sigma_g",
+    "iface.flags",
+];
+
 /// Names of every section of an MRTD v1 asset of these shapes, for `require_known`.
 pub fn section_names(shapes: &[&str]) -> Vec<String> {
     let mut v = vec!["meta".to_string(), "face_frames".to_string()];
     for s in shapes {
         v.extend(SHAPE_SECTIONS.iter().map(|x| format!("{s}.{x}")));
+    }
+    v
+}
+
+/// Face tokens in section names (section names allow no `+`): `nx px ny py nz pz` for
+/// `−x +x −y +y −z +z`.
+pub const FACE_TOKENS: [&str; 6] = ["nx", "px", "ny", "py", "nz", "pz"];
+
+/// Section names of one interface of a shape: `R_b→rlf` and the `U_r` row index.
+pub fn interface_section_names(shape: &str, face: usize) -> [String; 2] {
+    [format!("{shape}.r_b2rlf.{}", FACE_TOKENS[face]), format!("{shape}.u_r_idx.{}", FACE_TOKENS[face])]
+}
+
+/// Names of every section of an MRTD v2 asset of these shapes with these interfaces
+/// (`(shape, face)`), for `require_known`.
+pub fn section_names_v2(shapes: &[&str], interfaces: &[(&str, usize)]) -> Vec<String> {
+    let mut v = section_names(shapes);
+    if !interfaces.is_empty() {
+        v.extend(INTERFACE_SECTIONS.iter().map(|s| s.to_string()));
+        for (s, f) in interfaces {
+            v.extend(interface_section_names(s, *f));
+        }
     }
     v
 }
@@ -64,11 +99,16 @@ pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
             "runtime": "b = t_d2b . l_d (k_b); indirect = u_b . b (MRT thesis eq. 3.3); when params.exclude_same_face is true, the indirect light of the texels of face g is u_b[g] . (b - b_g) with b_g = t_d2b[:, g] . l_d[g] (a face's own direct light never reaches it; the same b - b_g for u_bvec)",
             "sh": "real orthonormal; index i = l(l+1)+m; Condon-Shortley as in graphics: y(1,-1) = -sqrt(3/4pi) y, y(1,0) = sqrt(3/4pi) z, y(1,1) = -sqrt(3/4pi) x",
             "u_bvec": "OHLSH (MRT thesis App. B) of incident radiance in the texel frame (x = face u, y = face v, z = inward normal); irradiance for unit normal m (texel frame) = pi*a0*y0 + (2pi/3)*sum_m a1m*y1m(m)",
+            "interfaces": "lightfield frame of travel direction t (horizontal), r = y x t; R_b2rlf maps a shape's b to reduced lightfield coefficients c of the light leaving through the face; iface.r_{straight,left,right} map c entering a block (travel t) to c leaving it straight / turned +90 deg about +Y (left) / -90 deg (right); iface.t_rlf2r maps c entering to response coefficients r; irradiance of a texel t of a block lit through its face g = u_r[u_r_idx.g[t]] . r (MRT thesis 3.4.1, 4.2)",
             "u_bvol": "order-3 SH (9) of incident radiance at probe centres, world (shape) frame; irradiance for normal m = sum_l Ahat_l sum_m c_lm y_lm(m), Ahat = (pi, 2pi/3, pi/4)",
         },
         "params": p.to_json(),
         "shapes": shapes,
-        "interfaces": [],
+        "interfaces": b.interfaces.as_ref().map_or_else(Vec::new, |ib| ib
+            .interfaces
+            .iter()
+            .map(|i| json!({"shape": b.shapes[i.shape].texels.shape.name, "face": FACE_NAMES[i.face]}))
+            .collect::<Vec<_>>()),
         "cache_key": cache_key,
         "metrics": b.metrics,
     })
@@ -104,6 +144,24 @@ pub fn to_asset(b: &DictBake, cache_key: Option<&str>) -> Result<AssetBuilder, T
         a.add_f32(&sec("sigma_d"), &[s.sigma_d_all.len()], &f32s(s.sigma_d_all.iter().copied())).map_err(err)?;
         a.add_f32(&sec("prior_s"), &[s.s.len()], &f32s(s.s.iter().copied())).map_err(err)?;
         a.add_f32(&sec("sigma_m"), &[r.sigma_m.len()], &f32s(r.sigma_m.iter().copied())).map_err(err)?;
+    }
+    if let Some(ib) = &b.interfaces {
+        let mat = |m: &faer::Mat<f64>| f32s((0..m.nrows()).flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)])));
+        for (name, m) in ["iface.r_straight", "iface.r_left", "iface.r_right"].iter().zip(&ib.r_turn) {
+            a.add_f32(name, &[m.nrows(), m.ncols()], &mat(m)).map_err(err)?;
+        }
+        a.add_f32("iface.u_r", &[ib.u_r.nrows(), ib.u_r.ncols()], &mat(&ib.u_r)).map_err(err)?;
+        a.add_f32("iface.t_rlf2r", &[ib.t_rlf2r.nrows(), ib.t_rlf2r.ncols()], &mat(&ib.t_rlf2r)).map_err(err)?;
+        a.add_f32("iface.sigma_rlf", &[ib.sigma_rlf.len()], &f32s(ib.sigma_rlf.iter().copied())).map_err(err)?;
+        a.add_f32("iface.sigma_g", &[ib.sigma_g.len()], &f32s(ib.sigma_g.iter().copied())).map_err(err)?;
+        // bit 0: the same-face exclusion runtime rule (params.exclude_same_face)
+        a.add_u32("iface.flags", &[1], &[u32::from(b.params.exclude_same_face)]).map_err(err)?;
+        for i in &ib.interfaces {
+            let name = b.shapes[i.shape].texels.shape.name;
+            let [rn, xn] = interface_section_names(name, i.face);
+            a.add_f32(&rn, &[i.r_b2rlf.nrows(), i.r_b2rlf.ncols()], &mat(&i.r_b2rlf)).map_err(err)?;
+            a.add_u32(&xn, &[i.u_r_index.len()], &i.u_r_index).map_err(err)?;
+        }
     }
     Ok(a)
 }

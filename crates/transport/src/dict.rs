@@ -5,6 +5,7 @@
 use crate::TransportError;
 use crate::balance::{BalanceStats, balance_transport};
 use crate::gather::{DirectionSet, Gather, probe_sh, texel_sh, transport_matrix};
+use crate::interface::{InterfaceBake, InterfaceMetrics, InterfaceParams, ShapeInput, bake_interfaces, side_openings};
 use crate::operators::{Prior, Reduced, enrich, fallback_basis, prior_from_samples, reduce};
 use crate::prior::{DirectLight, LightLayout, SphereLight, prior_lights, test_lights};
 use crate::reference::one_bounce;
@@ -18,8 +19,9 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Kind version of the `MRTD` sections this bake writes.
-pub const MRTD_KIND_VERSION: u32 = 1;
+/// Kind version of the `MRTD` sections this bake writes (2: optional interface sections;
+/// version 1 assets still load as dictionaries without interfaces).
+pub const MRTD_KIND_VERSION: u32 = 2;
 
 /// Energy fractions of Table 3.2.
 pub const TABLE_3_2_FRACTIONS: [f64; 3] = [0.80, 0.90, 0.95];
@@ -68,6 +70,10 @@ pub struct DictParams {
     pub reference_rays: usize,
     /// Seed of every hashed random draw.
     pub seed: u64,
+    /// Bake the interface operators (when the dictionary has missing side faces).
+    pub interfaces: bool,
+    /// Interface parameters.
+    pub interface: InterfaceParams,
 }
 
 impl DictParams {
@@ -93,6 +99,8 @@ impl DictParams {
             test_lights: 8,
             reference_rays: 1024,
             seed: 0,
+            interfaces: true,
+            interface: InterfaceParams::default(),
         }
     }
 
@@ -118,6 +126,14 @@ impl DictParams {
             "test_lights": self.test_lights,
             "reference_rays": self.reference_rays,
             "seed": self.seed,
+            "interfaces": self.interfaces,
+            "k_rlf": self.interface.k_rlf,
+            "k_r": self.interface.k_r,
+            "lf_spatial": self.interface.grid.spatial,
+            "lf_dir": self.interface.grid.dir,
+            "lf_super": self.interface.grid.sub,
+            "interface_enrich": self.interface.enrich,
+            "response_rays": self.interface.response_rays,
         })
     }
 
@@ -173,6 +189,28 @@ impl DictParams {
         }
         if !(2..=65536).contains(&self.reference_rays) {
             return bad("reference_rays", self.reference_rays.to_string(), "2..=65536");
+        }
+        let ip = &self.interface;
+        if !(1..=512).contains(&ip.k_rlf) {
+            return bad("k_rlf", ip.k_rlf.to_string(), "1..=512");
+        }
+        if !(1..=ip.k_rlf).contains(&ip.k_r) {
+            return bad("k_r", ip.k_r.to_string(), &format!("1..=k_rlf = 1..={}", ip.k_rlf));
+        }
+        if !(2..=32).contains(&ip.grid.spatial) {
+            return bad("lf_spatial", ip.grid.spatial.to_string(), "2..=32");
+        }
+        if !(2..=64).contains(&ip.grid.dir) {
+            return bad("lf_dir", ip.grid.dir.to_string(), "2..=64");
+        }
+        if !(1..=8).contains(&ip.grid.sub) {
+            return bad("lf_super", ip.grid.sub.to_string(), "1..=8");
+        }
+        if ip.enrich > 8 {
+            return bad("interface_enrich", ip.enrich.to_string(), "0..=8");
+        }
+        if !(16..=65536).contains(&ip.response_rays) {
+            return bad("response_rays", ip.response_rays.to_string(), "16..=65536");
         }
         Ok(())
     }
@@ -278,6 +316,10 @@ pub struct DictBake {
     pub shapes: Vec<ShapeBake>,
     /// Dictionary-level measurements.
     pub metrics: DictMetrics,
+    /// Interface operators (`None` without missing side faces or with `interfaces` off).
+    pub interfaces: Option<InterfaceBake>,
+    /// Wall time of the interface bake (reported, never stored in the asset).
+    pub interface_seconds: f64,
 }
 
 /// The `--json` metrics of a dictionary bake (without `bytes`, `seconds`).
@@ -297,6 +339,14 @@ pub struct DictMetrics {
     pub enrichment: RedBox,
     /// Everything per shape.
     pub shapes: BTreeMap<String, ShapeMetrics>,
+    /// The interfaces, `"<shape>.<face>"` (e.g. `"dead_end.+z"`), in asset order.
+    pub interfaces: Vec<String>,
+    /// Reduced lightfield modes kept (0 without interfaces).
+    pub k_rlf: usize,
+    /// Response modes kept (0 without interfaces).
+    pub k_r: usize,
+    /// Interface quality figures.
+    pub interface_metrics: Option<InterfaceMetrics>,
 }
 
 /// Counts progress of one stage across all shapes.
@@ -361,6 +411,10 @@ pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progres
         enrichment_rel_error_after: enrichment.rel_error_after,
         enrichment,
         shapes: BTreeMap::new(),
+        interfaces: Vec::new(),
+        k_rlf: 0,
+        k_r: 0,
+        interface_metrics: None,
     };
     for w in &work {
         let name = w.bake.texels.shape.name.to_string();
@@ -368,7 +422,36 @@ pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progres
         metrics.reference_rel_error.insert(name.clone(), w.bake.metrics.reference_rel_error);
         metrics.shapes.insert(name, w.bake.metrics.clone());
     }
-    Ok(DictBake { params: params.clone(), shapes: work.into_iter().map(|w| w.bake).collect(), metrics })
+    let shapes: Vec<ShapeBake> = work.into_iter().map(|w| w.bake).collect();
+    let start = std::time::Instant::now();
+    let has_side_openings = shapes.iter().any(|s| !side_openings(&s.texels.shape).is_empty());
+    let interfaces = if params.interfaces && has_side_openings {
+        let inputs: Vec<ShapeInput<'_>> =
+            shapes.iter().map(|s| ShapeInput { texels: &s.texels, reduced: &s.reduced }).collect();
+        let sigma_m: Vec<Vec<f64>> = shapes.iter().map(|s| s.reduced.sigma_m.clone()).collect();
+        let ib = bake_interfaces(
+            &inputs,
+            &sigma_m,
+            params.albedo,
+            params.face_res,
+            &params.interface,
+            params.seed,
+            progress,
+        )?;
+        metrics.interfaces = ib
+            .interfaces
+            .iter()
+            .map(|i| format!("{}.{}", shapes[i.shape].texels.shape.name, crate::shape::FACE_NAMES[i.face]))
+            .collect();
+        metrics.k_rlf = ib.sigma_rlf.len();
+        metrics.k_r = ib.u_r.ncols();
+        metrics.interface_metrics = Some(ib.metrics.clone());
+        Some(ib)
+    } else {
+        None
+    };
+    let interface_seconds = if interfaces.is_some() { start.elapsed().as_secs_f64() } else { 0.0 };
+    Ok(DictBake { params: params.clone(), shapes, metrics, interfaces, interface_seconds })
 }
 
 struct ShapeStages<'a> {

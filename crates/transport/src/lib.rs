@@ -10,8 +10,10 @@
 //! - [`reference`]: the brute-force ground truth (path tracer, exact form factors).
 //! - [`dict`]: the bake driver and its measurements; [`asset`]: the `MRTD` writer.
 //!
-//! Interfaces and level operators (§3.4, §4.2–4.3) come next; the asset layout reserves
-//! room for them (per-shape sections are prefixed, interfaces are listed in `meta`).
+//! Interfaces (§3.4.1, §4.2, `penumbra mrt dict`):
+//! - [`lightfield`]: interface frames, the lightfield grid and its continuous lookups.
+//! - [`sparse`]: row-compressed resampling operators.
+//! - [`interface`]: `H_lf`, `H_rlf` with enrichment, `R_b→rlf`, `R_↑/←/→`, `U_r`, `T_rlf→r`.
 //!
 //! All bake math is f64; linear algebra runs `Par::Seq` inside a decomposition and rayon
 //! across independent work, so the output bytes do not depend on the thread count.
@@ -20,10 +22,16 @@ pub mod asset;
 pub mod balance;
 pub mod dict;
 pub mod gather;
+pub mod interface;
+pub mod level;
+pub mod level_ops;
+pub mod level_reference;
+pub mod lightfield;
 pub mod operators;
 pub mod prior;
 pub mod reference;
 pub mod shape;
+pub mod sparse;
 pub mod svd;
 
 /// Errors of the transport bakes.
@@ -38,4 +46,7 @@ pub enum TransportError {
     /// The asset could not be built.
     #[error("cannot build the MRTD asset: {0}")]
     Asset(String),
+    /// An input asset (a dictionary read back by the level bake) is unusable.
+    #[error("{0}")]
+    Input(String),
 }

@@ -88,6 +88,102 @@ pub fn singular_values_gram(a: MatRef<'_, f64>) -> Result<Vec<f64>, TransportErr
     Ok(v)
 }
 
+/// Eigenvalues (descending) and eigenvectors (columns, same order) of the symmetric matrix
+/// `g` (its lower triangle is read).
+pub fn sym_eigen(g: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), TransportError> {
+    let n = g.nrows();
+    let mut s = Diag::<f64>::zeros(n);
+    let mut u = Mat::<f64>::zeros(n, n);
+    let par = Par::Seq;
+    let req = self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::Yes, par, Default::default());
+    let mut mem = MemBuffer::new(req);
+    self_adjoint_evd(g, s.as_mut(), Some(u.as_mut()), par, MemStack::new(&mut mem), Default::default())
+        .map_err(|e| TransportError::Svd(format!("eigen {n}×{n}: {e:?}")))?;
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| s[b].total_cmp(&s[a]).then(a.cmp(&b)));
+    let vals = order.iter().map(|&i| s[i]).collect();
+    let vecs = Mat::from_fn(n, n, |r, c| u[(r, order[c])]);
+    Ok((vals, vecs))
+}
+
+/// Rows per chunk of the chunked products below: fixed (not tied to the thread count), so
+/// the sums are the same bits for any `--threads`.
+pub const ROW_CHUNK: usize = 4096;
+
+/// `Aᵀ·B` for tall `A`, `B` (same rows): per-chunk products in parallel, summed in chunk order.
+pub fn gram_tn(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    use rayon::prelude::*;
+    let m = a.nrows();
+    let parts: Vec<Mat<f64>> = (0..m.div_ceil(ROW_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let r0 = c * ROW_CHUNK;
+            let len = ROW_CHUNK.min(m - r0);
+            mul_tn(a.subrows(r0, len), b.subrows(r0, len))
+        })
+        .collect();
+    let mut out = Mat::<f64>::zeros(a.ncols(), b.ncols());
+    for p in parts {
+        out += p;
+    }
+    out
+}
+
+/// `A·B` for tall `A`: row chunks in parallel (each chunk's rows are independent).
+pub fn mul_tall(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    use rayon::prelude::*;
+    let m = a.nrows();
+    let parts: Vec<Mat<f64>> = (0..m.div_ceil(ROW_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let r0 = c * ROW_CHUNK;
+            mul(a.subrows(r0, ROW_CHUNK.min(m - r0)), b)
+        })
+        .collect();
+    let mut out = Mat::<f64>::zeros(m, b.ncols());
+    for (c, p) in parts.into_iter().enumerate() {
+        out.as_mut().subrows_mut(c * ROW_CHUNK, p.nrows()).copy_from(p.as_ref());
+    }
+    out
+}
+
+/// The leading `k` left singular vectors and all singular values of a tall `A`, from the
+/// eigen-decomposition of its Gram matrix `AᵀA` (`u_i = A v_i / σ_i`): far cheaper than a
+/// bidiagonal SVD when `A` has many more rows than columns (the 82944-row lightfields), and
+/// accurate for the singular values that matter (squaring loses those below ~10⁻⁸σ₁; `k` is
+/// capped at the numerical rank). Signs canonical: the largest-magnitude entry of each `u_i`
+/// is positive.
+pub fn left_basis_gram(a: MatRef<'_, f64>, k: usize) -> Result<(Mat<f64>, Vec<f64>), TransportError> {
+    let g = gram_tn(a, a);
+    let (vals, vecs) = sym_eigen(g.as_ref())?;
+    let sigma: Vec<f64> = vals.iter().map(|&l| l.max(0.0).sqrt()).collect();
+    let k = k.min(numerical_rank(&sigma, 1e-7));
+    let vk = Mat::from_fn(a.ncols(), k, |i, j| vecs[(i, j)] / sigma[j]);
+    let mut u = mul_tall(a, vk.as_ref());
+    canonical_columns(&mut u);
+    Ok((u, sigma))
+}
+
+/// Flips each column's sign so that its largest-magnitude entry (first on ties) is positive.
+pub fn canonical_columns(u: &mut Mat<f64>) {
+    for j in 0..u.ncols() {
+        let mut best = 0usize;
+        let mut mag = -1.0f64;
+        for r in 0..u.nrows() {
+            let a = u[(r, j)].abs();
+            if a > mag {
+                mag = a;
+                best = r;
+            }
+        }
+        if u.nrows() > 0 && u[(best, j)] < 0.0 {
+            for r in 0..u.nrows() {
+                u[(r, j)] = -u[(r, j)];
+            }
+        }
+    }
+}
+
 /// Descending order, then a fixed sign per singular pair.
 fn canonicalise(d: &mut ThinSvd) {
     let k = d.s.len();

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// Stage names in execution order. Every configured entry of a stage is one work item;
 /// `--shard K/N` runs the items whose index (in this order) is K mod N.
-pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt"];
+pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt", "mrt_level"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -241,6 +241,47 @@ fn run_mrt(
     })
 }
 
+fn run_mrt_level(cfg: &penumbra_config::LoadedConfig, out_dir: &Path, force: bool) -> Result<StageReport, CliError> {
+    use super::mrt_level::{LevelSource, bake, load_dict, resolve};
+    let (Some(l), Some(m)) = (&cfg.config.mrt_level, &cfg.config.mrt) else {
+        return Err(CliError::internal(anyhow!("mrt_level stage selected but not configured")));
+    };
+    let dict_path = out_dir.join(m.output_name());
+    if !dict_path.exists() {
+        return Err(CliError::input(anyhow!(
+            "{}: [mrt_level] needs the dictionary {} (bake the [mrt] stage first)",
+            cfg.path.display(),
+            dict_path.display()
+        )));
+    }
+    let d = load_dict(&dict_path)?;
+    let level_path = l.level.as_deref().map(|p| cfg.resolve(p));
+    let level_text = match &level_path {
+        Some(p) => std::fs::read_to_string(p).with_context(|| format!("cannot read level {}", p.display()))?,
+        None => String::new(),
+    };
+    let max_depth = l.max_depth.unwrap_or(penumbra_transport::level_ops::DEFAULT_MAX_DEPTH as u32) as usize;
+    let key = blake3::hash(
+        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "mrt_level", "level": level_text, "maze": l.maze,
+               "seed": l.seed, "max_depth": max_depth, "dict": d.crc32c})
+        .to_string()
+        .as_bytes(),
+    )
+    .to_hex()
+    .to_string();
+    let output = out_dir.join(l.output_name());
+    cached_or_bake("mrt_level", "MRTL", &output, &key, force, || {
+        let start = Instant::now();
+        let src = LevelSource { maze: l.maze, seed: l.seed.unwrap_or(0), corridor: None, l_turn: None };
+        let (level, links, _) = resolve(level_path.as_deref(), &src, &d)?;
+        let (b, bytes) = bake(&level, &links, &d, max_depth, Some(key.clone()))?;
+        penumbra_asset::write_file_atomic(&output, &bytes)
+            .with_context(|| format!("cannot write {}", output.display()))?;
+        let metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+        Ok(Baked { bytes: bytes.len() as u64, seconds: start.elapsed().as_secs_f64(), metrics })
+    })
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
@@ -255,6 +296,9 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     items.extend((0..cfg.config.fiv.len()).map(|i| ("fiv", i)));
     if cfg.config.mrt.is_some() {
         items.push(("mrt", 0));
+    }
+    if cfg.config.mrt_level.is_some() {
+        items.push(("mrt_level", 0));
     }
     let configured: Vec<&str> = STAGES.iter().copied().filter(|s| items.iter().any(|(n, _)| n == s)).collect();
     if let Some(only) = &a.only {
@@ -289,6 +333,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             "spheres" => run_spheres(&cfg, index, &out_dir, a.force, mode)?,
             "fiv" => run_fiv(&cfg, index, &out_dir, a.force, mode)?,
             "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
+            "mrt_level" => run_mrt_level(&cfg, &out_dir, a.force)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {

@@ -4,10 +4,12 @@ pub mod bake;
 pub mod fiv;
 pub mod inspect;
 pub mod mrt;
+pub mod mrt_level;
 pub mod spheres;
 pub mod sweep_shadows;
 pub mod tables;
 pub mod verify_fiv;
+pub mod verify_mrt;
 pub mod verify_shadows;
 
 use crate::args::{Cli, Command};
@@ -29,12 +31,13 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
+            crate::args::VerifyCommand::Mrt(v) => verify_mrt::run(&v, cli.progress),
         },
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
         },
-        Command::Schema => {
-            print!("{}", penumbra_config::schema_json());
+        Command::Schema(a) => {
+            print!("{}", if a.level { penumbra_config::level_schema_json() } else { penumbra_config::schema_json() });
             Ok(ExitCode::Ok)
         }
     }

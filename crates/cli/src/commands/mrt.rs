@@ -1,5 +1,5 @@
 //! `penumbra mrt …`: Modular Radiance Transfer bakes. `mrt dict` bakes a dictionary (MRT
-//! thesis ch. 3–4, App. A–B); `mrt level` (block layouts, §3.5.3) comes next.
+//! thesis ch. 3–4, App. A–B); `mrt level` (block layouts, §3.5.3) is in `mrt_level.rs`.
 
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
@@ -31,6 +31,9 @@ pub enum MrtCommand {
     /// Bake an MRT dictionary: light prior, one-bounce transport, U_b, T_d→b, vector
     /// irradiance, volume probes, enrichment (MRT thesis ch. 3–4, App. A–B).
     Dict(MrtDictArgs),
+    /// Bake a level's operators: T_b→r by breadth-first propagation through the block
+    /// layout's interfaces, and the padded light-map atlas (MRT thesis §3.5.3, §4.3, §4.6).
+    Level(crate::commands::mrt_level::MrtLevelArgs),
 }
 
 /// Dictionaries (`--dictionary`).
@@ -134,6 +137,30 @@ pub struct MrtDictArgs {
     /// Seed of every hashed random draw.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Skip the interface operators (a dictionary that cannot light levels; faster).
+    #[arg(long)]
+    pub no_interfaces: bool,
+    /// Reduced lightfield modes k_rlf (thesis: 128).
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=512))]
+    pub k_rlf: u32,
+    /// Interface response modes k_r (thesis: 32; at most k_rlf).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=512))]
+    pub k_r: u32,
+    /// Lightfield spatial samples per interface edge (thesis: 12).
+    #[arg(long, default_value_t = 12, value_parser = clap::value_parser!(u32).range(2..=32))]
+    pub lf_spatial: u32,
+    /// Lightfield directional samples per edge of the concentric square (thesis: 24).
+    #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u32).range(2..=64))]
+    pub lf_dir: u32,
+    /// Directional supersamples per cell edge (thesis: 5).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub lf_super: u32,
+    /// Enrichment iterations of the reduced lightfield basis (thesis: 3).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=8))]
+    pub interface_enrich: u32,
+    /// Cosine gather rays per texel for the interface response G.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(16..=65536))]
+    pub response_rays: u32,
     /// Output asset (.mrtd). Parent directories are created.
     #[arg(short = 'o', long)]
     pub output: PathBuf,
@@ -151,6 +178,8 @@ pub struct DictOutcome {
     pub bytes: u64,
     /// Wall time.
     pub seconds: f64,
+    /// Wall time of the interface bake.
+    pub interface_seconds: f64,
 }
 
 /// Parameter values as given on the command line or in a config (`None` = default).
@@ -194,6 +223,22 @@ pub struct DictOptions {
     pub reference_rays: Option<u32>,
     /// Seed.
     pub seed: Option<u64>,
+    /// Interfaces on/off.
+    pub interfaces: Option<bool>,
+    /// k_rlf.
+    pub k_rlf: Option<u32>,
+    /// k_r.
+    pub k_r: Option<u32>,
+    /// Lightfield spatial resolution.
+    pub lf_spatial: Option<u32>,
+    /// Lightfield directional resolution.
+    pub lf_dir: Option<u32>,
+    /// Directional supersampling.
+    pub lf_super: Option<u32>,
+    /// Interface enrichment iterations.
+    pub interface_enrich: Option<u32>,
+    /// Response gather rays.
+    pub response_rays: Option<u32>,
 }
 
 impl DictOptions {
@@ -219,6 +264,14 @@ impl DictOptions {
             test_lights: m.test_lights,
             reference_rays: m.reference_rays,
             seed: m.seed,
+            interfaces: m.interfaces,
+            k_rlf: m.k_rlf,
+            k_r: m.k_r,
+            lf_spatial: m.lf_spatial,
+            lf_dir: m.lf_dir,
+            lf_super: m.lf_super,
+            interface_enrich: m.interface_enrich,
+            response_rays: m.response_rays,
         }
     }
 }
@@ -264,6 +317,16 @@ pub fn params(o: &DictOptions) -> Result<DictParams, CliError> {
     if let Some(x) = o.exclude_same_face {
         p.exclude_same_face = x;
     }
+    if let Some(x) = o.interfaces {
+        p.interfaces = x;
+    }
+    set(&mut p.interface.k_rlf, o.k_rlf);
+    set(&mut p.interface.k_r, o.k_r);
+    set(&mut p.interface.grid.spatial, o.lf_spatial);
+    set(&mut p.interface.grid.dir, o.lf_dir);
+    set(&mut p.interface.grid.sub, o.lf_super);
+    set(&mut p.interface.enrich, o.interface_enrich);
+    set(&mut p.interface.response_rays, o.response_rays);
     if let Some(g) = o.gather.as_deref() {
         p.gather = Gather::parse(g).ok_or_else(|| bad("gather", g, "bilinear, exact"))?;
     }
@@ -297,13 +360,14 @@ pub fn bake_to(p: &DictParams, output: &Path, mode: ProgressMode) -> Result<Dict
     ensure_parent(output)?;
     let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
     let metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
-    Ok(DictOutcome { metrics, bytes, seconds: start.elapsed().as_secs_f64() })
+    Ok(DictOutcome { metrics, bytes, seconds: start.elapsed().as_secs_f64(), interface_seconds: b.interface_seconds })
 }
 
 /// Runs `penumbra mrt …`.
 pub fn run(a: &MrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     match &a.command {
         MrtCommand::Dict(d) => run_dict(d, mode),
+        MrtCommand::Level(l) => crate::commands::mrt_level::run(l),
     }
 }
 
@@ -344,6 +408,14 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         test_lights: Some(a.test_lights),
         reference_rays: Some(a.reference_rays),
         seed: Some(a.seed),
+        interfaces: Some(!a.no_interfaces),
+        k_rlf: Some(a.k_rlf),
+        k_r: Some(a.k_r),
+        lf_spatial: Some(a.lf_spatial),
+        lf_dir: Some(a.lf_dir),
+        lf_super: Some(a.lf_super),
+        interface_enrich: Some(a.interface_enrich),
+        response_rays: Some(a.response_rays),
     };
     let p = params(&o)?;
     let out = bake_to(&p, &a.output, mode)?;
@@ -351,6 +423,7 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     if let Some(obj) = v.as_object_mut() {
         obj.insert("bytes".into(), json!(out.bytes));
         obj.insert("seconds".into(), json!(out.seconds));
+        obj.insert("interface_seconds".into(), json!(out.interface_seconds));
         obj.insert("output".into(), json!(a.output.display().to_string()));
     }
     if a.json {
@@ -370,6 +443,20 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             m["enrichment_rel_error_before"].as_f64().unwrap_or(f64::NAN),
             m["enrichment_rel_error_after"].as_f64().unwrap_or(f64::NAN),
         );
+        if let Some(im) = m["interface_metrics"].as_object() {
+            eprintln!(
+                "  interfaces: {} openings, k_rlf {}, k_r {} in {:.2} s; lightfield outside H_rlf {:.3}, propagated outside {:.3}/{:.3}/{:.3}, response outside U_r {:.3}",
+                m["interfaces"].as_array().map_or(0, Vec::len),
+                m["k_rlf"],
+                m["k_r"],
+                out.interface_seconds,
+                im["lightfield_rel_error"].as_f64().unwrap_or(f64::NAN),
+                im["propagation_rel_error"][0].as_f64().unwrap_or(f64::NAN),
+                im["propagation_rel_error"][1].as_f64().unwrap_or(f64::NAN),
+                im["propagation_rel_error"][2].as_f64().unwrap_or(f64::NAN),
+                im["response_rel_error"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
         if let Some(shapes) = m["shapes"].as_object() {
             for (name, s) in shapes {
                 eprintln!(

@@ -1,0 +1,315 @@
+//! `penumbra verify mrt`: the MRT runtime on a level against a path tracer on the same blocks.
+
+use crate::commands::mrt_level::{LevelSource, bake, load_dict, resolve, validated};
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::ensure_parent;
+use crate::progress::{ProgressMode, Reporter};
+use anyhow::{Context, anyhow};
+use clap::Args;
+use penumbra_asset::{Asset, AssetFile};
+use penumbra_math::progress::Progress;
+use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+use penumbra_transport::level::{Level, Links};
+use penumbra_transport::level_reference::{LevelGeometry, PointLight, direct_at, level_texels, reference};
+use serde_json::json;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// `penumbra verify mrt`.
+#[derive(Debug, Args)]
+pub struct VerifyMrtArgs {
+    /// The level: a level file (TOML) or a baked level asset (.mrtl, verified as it is, with
+    /// the dictionary it was baked with). Omit with --maze/--corridor/--l-turn.
+    #[arg(long)]
+    pub level: Option<PathBuf>,
+    /// The dictionary (.mrtd, with interfaces).
+    #[arg(long)]
+    pub dict: PathBuf,
+    /// Procedural level.
+    #[command(flatten)]
+    pub source: LevelSource,
+    /// Point lights (TOML `[[light]] position = [x, y, z]`, `intensity`). Default: one light of
+    /// intensity 1 at the centre of block 0, and of every 8th block after it.
+    #[arg(long)]
+    pub lights: Option<PathBuf>,
+    /// Wall albedo of the comparison (the runtime scales the dictionary's baked albedo).
+    #[arg(long, default_value_t = 0.5, value_parser = parse_albedo)]
+    pub albedo: f64,
+    /// Reference rays per texel.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(4..=1_048_576))]
+    pub rays: u32,
+    /// Bounces of the multi-bounce comparison (runtime feedback iterations and path length).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub bounces: u32,
+    /// Depth limit of the level operators.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub max_depth: u32,
+    /// Seed of the reference.
+    #[arg(long = "ref-seed", default_value_t = 0)]
+    pub ref_seed: u64,
+    /// Top view of the floor's one-bounce indirect light, MRT | reference (PNG).
+    #[arg(long)]
+    pub image: Option<PathBuf>,
+    /// One JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_albedo(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v > 0.0 && v < 1.0 { Ok(v) } else { Err(format!("{v} is out of range (allowed: 0 < A < 1)")) }
+}
+
+fn rel(a: &[f64], b: &[f64]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    let den: f64 = b.iter().map(|y| y * y).sum();
+    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+}
+
+fn norm_ratio(a: &[f64], b: &[f64]) -> f64 {
+    let num: f64 = a.iter().map(|x| x * x).sum();
+    let den: f64 = b.iter().map(|y| y * y).sum();
+    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+}
+
+/// Median wall time of `f` over `reps` runs, in ms.
+fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
+    let mut t: Vec<f64> = (0..reps)
+        .map(|_| {
+            let s = Instant::now();
+            f();
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+#[allow(clippy::print_stderr)]
+/// Runs `penumbra verify mrt`.
+pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let d = load_dict(&a.dict)?;
+    // a baked MRTL asset: its own level and operators (checked against the dictionary)
+    let mut baked: Option<(Vec<u8>, usize)> = None;
+    let mut from_asset: Option<(Level, Links, String)> = None;
+    if let Some(p) = &a.level {
+        let bytes = std::fs::read(p).with_context(|| format!("cannot read level {}", p.display()))?;
+        if bytes.starts_with(b"PENUMBRA") {
+            let asset = penumbra_asset::OwnedAsset::parse(&bytes)
+                .map_err(|e| CliError::input(anyhow!("{}: {e}", p.display())))?;
+            let at = asset.asset();
+            if at.kind().as_str() != "MRTL" {
+                return Err(CliError::input(anyhow!(
+                    "{}: a {} asset, not an MRT level (MRTL)",
+                    p.display(),
+                    at.kind().as_str()
+                )));
+            }
+            let meta: serde_json::Value = serde_json::from_str(at.meta_json()).map_err(CliError::internal)?;
+            if meta["dictionary"]["crc32c"].as_str() != Some(format!("{:08x}", d.crc32c).as_str()) {
+                return Err(CliError::input(anyhow!(
+                    "{} was baked with another dictionary (CRC-32C {}), not {} ({:08x})",
+                    p.display(),
+                    meta["dictionary"]["crc32c"],
+                    a.dict.display(),
+                    d.crc32c
+                )));
+            }
+            if a.source.maze.is_some() || a.source.corridor.is_some() || a.source.l_turn.is_some() {
+                return Err(CliError::input(anyhow!("give either --level or --maze/--corridor/--l-turn, not both")));
+            }
+            let lf: penumbra_config::LevelFile = serde_json::from_value(meta["level"].clone())
+                .map_err(|e| CliError::input(anyhow!("{}: meta.level: {e}", p.display())))?;
+            let (level, links) = validated(&lf, p, &d)?;
+            let depth = meta["params"]["max_depth"].as_u64().unwrap_or(8) as usize;
+            from_asset = Some((level, links, p.display().to_string()));
+            baked = Some((bytes, depth));
+        }
+    }
+    let (level, links, what) = match from_asset {
+        Some(x) => x,
+        None => resolve(a.level.as_deref(), &a.source, &d)?,
+    };
+    let geo = LevelGeometry { level: &level, links: &links, missing: &d.missing };
+    let lights: Vec<PointLight> = match &a.lights {
+        Some(p) => {
+            let f = penumbra_config::level::load_lights(p)?;
+            if f.lights.is_empty() {
+                return Err(CliError::input(anyhow!("{}: no [[light]]", p.display())));
+            }
+            let mut v = Vec::new();
+            for (i, l) in f.lights.iter().enumerate() {
+                let intensity = l.intensity.unwrap_or(1.0);
+                if !(intensity.is_finite() && intensity > 0.0) || geo.block_of(l.position).is_none() {
+                    return Err(CliError::input(anyhow!(
+                        "{}: light {i} at {:?} must have a positive intensity and lie inside a block",
+                        p.display(),
+                        l.position
+                    )));
+                }
+                v.push(PointLight { position: l.position, intensity });
+            }
+            v
+        }
+        None => (0..level.blocks.len())
+            .step_by(8)
+            .map(|b| PointLight { position: level.blocks[b].to_world([0.5, 0.5, 0.5]), intensity: 1.0 })
+            .collect(),
+    };
+    // the level operators, through the asset bytes the runtime reads
+    let (max_depth, bytes) = match baked {
+        Some((bytes, depth)) => (depth, bytes),
+        None => (a.max_depth as usize, bake(&level, &links, &d, a.max_depth as usize, None)?.1),
+    };
+    let level_asset = penumbra_asset::OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
+    let dict_file = AssetFile::open(&a.dict).with_context(|| format!("cannot open {}", a.dict.display()))?;
+    let dict_asset: Asset<'_> = dict_file.asset();
+    let rd =
+        MrtDictionary::from_asset(&dict_asset).map_err(|e| CliError::input(anyhow!("{}: {e}", a.dict.display())))?;
+    let la = level_asset.asset();
+    let rl = MrtLevel::from_asset(&la, &rd).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+    let block_pairs = {
+        let mut p: Vec<(u32, u32)> = rl.records.iter().map(|r| (r.dst, r.src)).collect();
+        p.dedup();
+        p.sort_unstable();
+        p.dedup();
+        p.len()
+    };
+    let mut rt = MrtRuntime::new(rd, rl);
+    let tex = level_texels(&level, &d.missing, d.face_res);
+    if tex.texels.len() != rt.texel_count() {
+        return Err(CliError::internal(anyhow!("texel count {} vs runtime {}", tex.texels.len(), rt.texel_count())));
+    }
+    let direct = direct_at(&geo, &tex, &lights);
+    let l_d: Vec<f32> = direct.iter().map(|&x| x as f32).collect();
+    let n = l_d.len();
+    let scale = (a.albedo / d.albedo) as f32;
+    let mut one = vec![0.0f32; n];
+    let mut none = vec![0.0f32; n];
+    let mut multi = vec![0.0f32; n];
+    rt.indirect(&l_d, &mut one, true);
+    rt.indirect(&l_d, &mut none, false);
+    rt.multi_bounce(&l_d, &mut multi, a.bounces as usize, scale);
+    let ms_runtime = median_ms(21, || rt.indirect(&l_d, &mut one, true));
+    let ms_multi = median_ms(5, || rt.multi_bounce(&l_d, &mut multi, a.bounces as usize, scale));
+    let to64 = |v: &[f32], s: f64| -> Vec<f64> { v.iter().map(|&x| f64::from(x) * s).collect() };
+    let one = to64(&one, f64::from(scale));
+    let none = to64(&none, f64::from(scale));
+    let multi = to64(&multi, 1.0);
+    // the reference
+    let rep = Reporter::new("verify mrt", mode);
+    let done = AtomicU64::new(0);
+    let total = n as u64;
+    let t_ref = Instant::now();
+    let r = reference(&geo, &tex, &lights, a.albedo, a.rays as usize, a.bounces as usize, a.ref_seed, &|k| {
+        let v = done.fetch_add(k, Ordering::Relaxed) + k;
+        rep.update("reference", v.min(total), total);
+    });
+    rep.finish();
+    let reference_seconds = t_ref.elapsed().as_secs_f64();
+    let per_block: Vec<serde_json::Value> = (0..level.blocks.len())
+        .map(|b| {
+            let rg = tex.offsets[b]..tex.offsets[b + 1];
+            json!({
+                "block": b,
+                "shape": d.names[level.blocks[b].shape],
+                "one_bounce": rel(&one[rg.clone()], &r.one_bounce[rg.clone()]),
+                "one_bounce_no_interfaces": rel(&none[rg.clone()], &r.one_bounce[rg.clone()]),
+                "multi_bounce": rel(&multi[rg.clone()], &r.multi_bounce[rg.clone()]),
+                "reference_noise_one_bounce": norm_ratio(&r.one_half_difference[rg.clone()], &r.one_bounce[rg]),
+            })
+        })
+        .collect();
+    let v = json!({
+        "level": what,
+        "blocks": level.blocks.len(),
+        "texels": n,
+        "lights": lights.len(),
+        "albedo": a.albedo,
+        "bounces": a.bounces,
+        "rays": a.rays,
+        "max_depth": max_depth,
+        "block_pairs": block_pairs,
+        "rel_error_one_bounce": rel(&one, &r.one_bounce),
+        "rel_error_one_bounce_no_interfaces": rel(&none, &r.one_bounce),
+        "rel_error_multi_bounce": rel(&multi, &r.multi_bounce),
+        "reference_noise_one_bounce": norm_ratio(&r.one_half_difference, &r.one_bounce),
+        "reference_noise_multi_bounce": norm_ratio(&r.multi_half_difference, &r.multi_bounce),
+        "indirect_to_direct": norm_ratio(&r.one_bounce, &direct),
+        "ms_runtime": ms_runtime,
+        "ms_runtime_multi_bounce": ms_multi,
+        "per_block": per_block,
+        "reference_seconds": reference_seconds,
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    if let Some(p) = &a.image {
+        let png = top_view(&tex, &one, &r.one_bounce, d.face_res);
+        ensure_parent(p)?;
+        penumbra_asset::write_file_atomic(p, &png).with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    if a.json {
+        print_json(&v);
+    } else {
+        eprintln!(
+            "{what}: {} blocks, {n} texels, {} lights, albedo {}\n  one bounce: rel. error {:.4} (without interfaces {:.4}; reference noise {:.4})\n  {} bounces: rel. error {:.4} (reference noise {:.4})\n  runtime {:.3} ms one bounce, {:.3} ms {} bounces (one thread)",
+            level.blocks.len(),
+            lights.len(),
+            a.albedo,
+            v["rel_error_one_bounce"].as_f64().unwrap_or(f64::NAN),
+            v["rel_error_one_bounce_no_interfaces"].as_f64().unwrap_or(f64::NAN),
+            v["reference_noise_one_bounce"].as_f64().unwrap_or(f64::NAN),
+            a.bounces,
+            v["rel_error_multi_bounce"].as_f64().unwrap_or(f64::NAN),
+            v["reference_noise_multi_bounce"].as_f64().unwrap_or(f64::NAN),
+            ms_runtime,
+            ms_multi,
+            a.bounces
+        );
+    }
+    Ok(ExitCode::Ok)
+}
+
+/// Top view of the floors (face −y, seen from above: +x right, +z down), `4·face_res`
+/// pixels per block edge (each texel a 4×4 square): MRT on the left, the reference on the
+/// right, one tone scale (gamma 2.2 of value / peak).
+fn top_view(
+    tex: &penumbra_transport::level_reference::LevelTexels,
+    mrt: &[f64],
+    reference: &[f64],
+    r: usize,
+) -> Vec<u8> {
+    let floor: Vec<usize> = (0..tex.texels.len()).filter(|&i| tex.texels[i].1 == 2).collect();
+    let (mut x0, mut x1, mut z0, mut z1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &i in &floor {
+        let p = tex.texels[i].2;
+        x0 = x0.min(p[0]);
+        x1 = x1.max(p[0]);
+        z0 = z0.min(p[2]);
+        z1 = z1.max(p[2]);
+    }
+    let s = r as f64;
+    let up = 4;
+    let w = (((x1 - x0) * s).round() as usize + 1) * up;
+    let h = (((z1 - z0) * s).round() as usize + 1) * up;
+    let gap = 8;
+    let width = 2 * w + gap;
+    let peak = floor.iter().map(|&i| reference[i].max(mrt[i])).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
+    let mut img = vec![32u8; width * h * 3];
+    for &i in &floor {
+        let p = tex.texels[i].2;
+        let (px, pz) = (((p[0] - x0) * s).round() as usize, ((p[2] - z0) * s).round() as usize);
+        for (side, v) in [(0usize, mrt[i]), (w + gap, reference[i])] {
+            let g = ((v.max(0.0) / peak).powf(1.0 / 2.2) * 255.0).round().clamp(0.0, 255.0) as u8;
+            for dz in 0..up {
+                for dx in 0..up {
+                    let o = ((pz * up + dz) * width + side + px * up + dx) * 3;
+                    img[o..o + 3].copy_from_slice(&[g, g, (f64::from(g) * 0.9) as u8]);
+                }
+            }
+        }
+    }
+    crate::png::encode_rgb8(width as u32, h as u32, &img)
+}

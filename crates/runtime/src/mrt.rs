@@ -1,0 +1,420 @@
+//! The MRT runtime (MRT thesis §3.6.3, ch. 4): indirect light of a level from direct light
+//! at its block texels, with an `MRTD` dictionary (kind version 2) and an `MRTL` level.
+//!
+//! Per evaluation ([`MrtRuntime::indirect`]):
+//! 1. `b = T_d→b l_d` per block (§4.4), split per face when the dictionary's same-face rule
+//!    is on (`iface.flags` bit 0: the texels of face `g` get `U_b (b − b_g)`);
+//! 2. `U_b b` into the block's texels (§4.4.3);
+//! 3. `r = T_b→r b` per record: receiving block, entering face, source block (§4.5.1);
+//! 4. `U_r r` into the receiving block's texels, through the row index of its entering face
+//!    (§4.5.2);
+//! 5. ([`MrtRuntime::pad_atlas`]) the padded light-map atlas (§4.6).
+//!
+//! [`MrtRuntime::multi_bounce`] feeds albedo × indirect back as direct light (§3.6.3).
+//! Everything is f32, single-threaded, and allocation-free after construction.
+
+use crate::RuntimeError;
+use penumbra_asset::{Asset, DType};
+
+fn bad(m: impl Into<String>) -> RuntimeError {
+    RuntimeError::Invalid(m.into())
+}
+
+fn f32_section<'a>(a: &Asset<'a>, name: &str, dims: &[usize]) -> Result<&'a [f32], RuntimeError> {
+    let s = a.section(name).ok_or_else(|| bad(format!("section {name:?} is missing")))?;
+    if s.dtype() != DType::F32 || s.dims() != dims {
+        return Err(bad(format!("section {name:?}: expected f32 {dims:?}, found {:?} {:?}", s.dtype(), s.dims())));
+    }
+    s.as_f32().map_err(|e| bad(format!("section {name:?}: {e}")))
+}
+
+fn u32_section<'a>(a: &Asset<'a>, name: &str) -> Result<(&'a [u32], Vec<usize>), RuntimeError> {
+    let s = a.section(name).ok_or_else(|| bad(format!("section {name:?} is missing")))?;
+    if s.dtype() != DType::U32 {
+        return Err(bad(format!("section {name:?}: expected u32")));
+    }
+    Ok((s.as_u32().map_err(|e| bad(format!("section {name:?}: {e}")))?, s.dims().to_vec()))
+}
+
+/// Face tokens of interface section names.
+const FACE_TOKENS: [&str; 6] = ["nx", "px", "ny", "py", "nz", "pz"];
+
+/// One dictionary shape's runtime operators.
+#[derive(Debug, Clone)]
+pub struct MrtShape<'a> {
+    /// Name.
+    pub name: String,
+    /// Texels.
+    pub n: usize,
+    /// Indirect modes.
+    pub k_b: usize,
+    /// Present faces in texel-slot order.
+    pub faces: &'a [u8],
+    /// `U_b` (n × k_b, row-major).
+    pub u_b: &'a [f32],
+    /// `T_d→b` (k_b × n, row-major).
+    pub t_d2b: &'a [f32],
+    /// Per face: the `U_r` row of each texel for light entering through that face.
+    pub u_r_idx: [Option<&'a [u32]>; 6],
+}
+
+/// A dictionary's runtime view (`MRTD`, kind version 2 with interfaces).
+#[derive(Debug, Clone)]
+pub struct MrtDictionary<'a> {
+    /// Shapes in dictionary order.
+    pub shapes: Vec<MrtShape<'a>>,
+    /// `U_r` (rows × k_r, row-major).
+    pub u_r: &'a [f32],
+    /// `k_r`.
+    pub k_r: usize,
+    /// Texels per face (`R²`).
+    pub face_texels: usize,
+    /// The same-face exclusion rule.
+    pub exclude_same_face: bool,
+}
+
+impl<'a> MrtDictionary<'a> {
+    /// Validates and views a dictionary. Shapes are found by their `<shape>.u_b` sections in
+    /// file order (the dictionary order), so no JSON is parsed.
+    pub fn from_asset(a: &Asset<'a>) -> Result<Self, RuntimeError> {
+        if a.kind().as_str() != "MRTD" {
+            return Err(RuntimeError::WrongKind { expected: "MRTD", found: a.kind().as_str().to_string() });
+        }
+        let us = a.section("iface.u_r").ok_or_else(|| {
+            bad("the dictionary has no interface operators (MRTD kind_version 1 or baked without interfaces)")
+        })?;
+        let (rows, k_r) = match us.dims() {
+            &[r, k] if r % 5 == 0 && r > 0 && k > 0 => (r, k),
+            d => return Err(bad(format!("iface.u_r: dims {d:?}"))),
+        };
+        let u_r = f32_section(a, "iface.u_r", &[rows, k_r])?;
+        let (flags, _) = u32_section(a, "iface.flags")?;
+        let exclude_same_face = flags.first().is_some_and(|f| f & 1 == 1);
+        let face_texels = rows / 5;
+        let mut shapes = Vec::new();
+        for s in a.iter() {
+            let Some(name) = s.name().strip_suffix(".u_b").map(str::to_string) else { continue };
+            let (n, k_b) = match s.dims() {
+                &[n, k] if k <= 256 => (n, k),
+                d => return Err(bad(format!("{name}.u_b: dims {d:?} (k_b ≤ 256)"))),
+            };
+            let u_b = f32_section(a, &format!("{name}.u_b"), &[n, k_b])?;
+            let t_d2b = f32_section(a, &format!("{name}.t_d2b"), &[k_b, n])?;
+            let fs = a.section(&format!("{name}.faces")).ok_or_else(|| bad(format!("{name}.faces missing")))?;
+            let faces = fs.as_u8().map_err(|e| bad(format!("{name}.faces: {e}")))?;
+            if faces.len() * face_texels != n || faces.iter().any(|&f| f >= 6) {
+                return Err(bad(format!("{name}: {} faces × {face_texels} texels ≠ {n}", faces.len())));
+            }
+            let mut u_r_idx = [None; 6];
+            for (f, slot) in u_r_idx.iter_mut().enumerate() {
+                let sec = format!("{name}.u_r_idx.{}", FACE_TOKENS[f]);
+                if a.section(&sec).is_some() {
+                    let (idx, dims) = u32_section(a, &sec)?;
+                    if dims != [n] || idx.iter().any(|&i| i as usize >= rows) {
+                        return Err(bad(format!("{sec}: dims {dims:?} or a row out of range")));
+                    }
+                    *slot = Some(idx);
+                }
+            }
+            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx });
+        }
+        if shapes.is_empty() {
+            return Err(bad("the dictionary has no shapes"));
+        }
+        Ok(Self { shapes, u_r, k_r, face_texels, exclude_same_face })
+    }
+}
+
+/// One stored block of `T_b→r`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MrtRecord {
+    /// Receiving block.
+    pub dst: u32,
+    /// Its entering face.
+    pub face: u32,
+    /// Source block.
+    pub src: u32,
+}
+
+/// A level's runtime view (`MRTL`).
+#[derive(Debug, Clone)]
+pub struct MrtLevel<'a> {
+    /// Per block: dictionary shape index.
+    pub shapes: Vec<usize>,
+    /// Records, sorted by `(dst, face, src)`.
+    pub records: Vec<MrtRecord>,
+    /// `T_b→r` (records × k_r × k_b).
+    pub t_b2r: &'a [f32],
+    /// `k_b` of `t_b2r` (the dictionary's largest).
+    pub k_b: usize,
+    /// Atlas width, height.
+    pub atlas: (usize, usize),
+    /// Tiles: block, face, x0, y0.
+    pub tiles: &'a [u32],
+    /// Border records: atlas pixel, block, texel.
+    pub pad: &'a [u32],
+}
+
+impl<'a> MrtLevel<'a> {
+    /// Validates and views a level against its dictionary.
+    pub fn from_asset(a: &Asset<'a>, d: &MrtDictionary<'_>) -> Result<Self, RuntimeError> {
+        if a.kind().as_str() != "MRTL" {
+            return Err(RuntimeError::WrongKind { expected: "MRTL", found: a.kind().as_str().to_string() });
+        }
+        let (blocks, bd) = u32_section(a, "blocks")?;
+        let nb = match bd.as_slice() {
+            &[nb, 2] => nb,
+            d => return Err(bad(format!("blocks: dims {d:?}"))),
+        };
+        let shapes: Vec<usize> = blocks.chunks_exact(2).map(|c| c[0] as usize).collect();
+        if shapes.iter().any(|&s| s >= d.shapes.len()) {
+            return Err(bad("blocks: shape index out of range for this dictionary"));
+        }
+        let (rec, rd) = u32_section(a, "records")?;
+        let np = match rd.as_slice() {
+            &[np, 3] => np,
+            d => return Err(bad(format!("records: dims {d:?}"))),
+        };
+        let records: Vec<MrtRecord> =
+            rec.chunks_exact(3).map(|c| MrtRecord { dst: c[0], face: c[1], src: c[2] }).collect();
+        for r in &records {
+            if r.dst as usize >= nb || r.src as usize >= nb || r.face >= 6 {
+                return Err(bad(format!("record {r:?} out of range")));
+            }
+            if d.shapes[shapes[r.dst as usize]].u_r_idx[r.face as usize].is_none() {
+                return Err(bad(format!("record {r:?}: the dictionary has no interface for that face")));
+            }
+        }
+        if records.windows(2).any(|w| (w[0].dst, w[0].face, w[0].src) > (w[1].dst, w[1].face, w[1].src)) {
+            return Err(bad("records are not sorted by (dst, face, src)"));
+        }
+        let k_b = d.shapes.iter().map(|s| s.k_b).max().unwrap_or(0);
+        let t_b2r = f32_section(a, "t_b2r", &[np, d.k_r, k_b])?;
+        let (size, _) = u32_section(a, "atlas_size")?;
+        let atlas = match size {
+            &[w, h] => (w as usize, h as usize),
+            _ => return Err(bad("atlas_size: expected 2 values")),
+        };
+        let (tiles, td) = u32_section(a, "atlas_tiles")?;
+        let (pad, pd) = u32_section(a, "atlas_pad")?;
+        if td.len() != 2 || td[1] != 4 || pd.len() != 2 || pd[1] != 3 {
+            return Err(bad("atlas_tiles / atlas_pad: bad dims"));
+        }
+        let r = (d.face_texels as f64).sqrt() as usize;
+        for t in tiles.chunks_exact(4) {
+            let ok = (t[0] as usize) < nb
+                && t[1] < 6
+                && t[2] as usize + r + 2 <= atlas.0
+                && t[3] as usize + r + 2 <= atlas.1
+                && d.shapes[shapes[t[0] as usize]].faces.contains(&(t[1] as u8));
+            if !ok {
+                return Err(bad(format!("atlas tile {t:?} out of range")));
+            }
+        }
+        for p in pad.chunks_exact(3) {
+            let ok = (p[0] as usize) < atlas.0 * atlas.1
+                && (p[1] as usize) < nb
+                && (p[2] as usize) < d.shapes[shapes[p[1] as usize]].n;
+            if !ok {
+                return Err(bad(format!("atlas pad record {p:?} out of range")));
+            }
+        }
+        Ok(Self { shapes, records, t_b2r, k_b, atlas, tiles, pad })
+    }
+}
+
+/// The evaluator: buffers sized once for a level.
+#[derive(Debug, Clone)]
+pub struct MrtRuntime<'a> {
+    dict: MrtDictionary<'a>,
+    level: MrtLevel<'a>,
+    /// First texel of each block in the concatenated texel arrays.
+    offsets: Vec<usize>,
+    /// `b` per block (k_b each, zero beyond the shape's k_b).
+    b: Vec<f32>,
+    /// `b_g` per block and face slot (6 × k_b per block).
+    b_face: Vec<f32>,
+    r: Vec<f32>,
+    scratch: Vec<f32>,
+    bounce: Vec<f32>,
+}
+
+impl<'a> MrtRuntime<'a> {
+    /// A runtime for a level and its dictionary.
+    pub fn new(dict: MrtDictionary<'a>, level: MrtLevel<'a>) -> Self {
+        let mut offsets = Vec::with_capacity(level.shapes.len() + 1);
+        let mut o = 0;
+        for &s in &level.shapes {
+            offsets.push(o);
+            o += dict.shapes[s].n;
+        }
+        offsets.push(o);
+        let kb = level.k_b;
+        let nb = level.shapes.len();
+        let k_r = dict.k_r;
+        Self {
+            dict,
+            level,
+            offsets,
+            b: vec![0.0; nb * kb],
+            b_face: vec![0.0; nb * 6 * kb],
+            r: vec![0.0; k_r],
+            scratch: vec![0.0; o],
+            bounce: vec![0.0; o],
+        }
+    }
+
+    /// Texels of the level (the length of `l_d` and of the output).
+    pub fn texel_count(&self) -> usize {
+        self.offsets.last().copied().unwrap_or(0)
+    }
+
+    /// First texel of each block (and the total at the end).
+    pub fn offsets(&self) -> &[usize] {
+        &self.offsets
+    }
+
+    /// The dictionary.
+    pub fn dictionary(&self) -> &MrtDictionary<'a> {
+        &self.dict
+    }
+
+    /// The level.
+    pub fn level(&self) -> &MrtLevel<'a> {
+        &self.level
+    }
+
+    /// One-bounce indirect irradiance at every texel from direct irradiance `l_d` (both in
+    /// block order, each block in its shape's texel layout). `interfaces = false` keeps the
+    /// light inside each block (no `T_b→r`), for comparison.
+    pub fn indirect(&mut self, l_d: &[f32], out: &mut [f32], interfaces: bool) {
+        let n_all = self.texel_count();
+        assert!(l_d.len() == n_all && out.len() == n_all, "l_d and out must have texel_count() entries");
+        let kb = self.level.k_b;
+        let r2 = self.dict.face_texels;
+        // 1. b per block, per face
+        for (x, &s) in self.level.shapes.iter().enumerate() {
+            let sh = &self.dict.shapes[s];
+            let l = &l_d[self.offsets[x]..self.offsets[x] + sh.n];
+            let bf = &mut self.b_face[x * 6 * kb..(x + 1) * 6 * kb];
+            bf.iter_mut().for_each(|v| *v = 0.0);
+            for i in 0..sh.k_b {
+                let row = &sh.t_d2b[i * sh.n..(i + 1) * sh.n];
+                for slot in 0..sh.faces.len() {
+                    let range = slot * r2..(slot + 1) * r2;
+                    bf[slot * kb + i] = dot(&row[range.clone()], &l[range]);
+                }
+            }
+            let b = &mut self.b[x * kb..(x + 1) * kb];
+            b.iter_mut().for_each(|v| *v = 0.0);
+            for slot in 0..sh.faces.len() {
+                for (bi, v) in b.iter_mut().zip(&bf[slot * kb..(slot + 1) * kb]) {
+                    *bi += v;
+                }
+            }
+            // 2. U_b b (or U_b (b − b_g) at the texels of face g)
+            let o = &mut out[self.offsets[x]..self.offsets[x] + sh.n];
+            let mut eff = [0.0f32; 256];
+            let eff = &mut eff[..sh.k_b.min(256)];
+            for slot in 0..sh.faces.len() {
+                for (i, e) in eff.iter_mut().enumerate() {
+                    *e = if self.dict.exclude_same_face { b[i] - bf[slot * kb + i] } else { b[i] };
+                }
+                for t in slot * r2..(slot + 1) * r2 {
+                    o[t] = dot(&sh.u_b[t * sh.k_b..t * sh.k_b + eff.len()], eff);
+                }
+            }
+        }
+        if !interfaces {
+            return;
+        }
+        // 3–4. r per (dst, face), summed over sources, then U_r r
+        let k_r = self.dict.k_r;
+        let recs = &self.level.records;
+        let mut i = 0;
+        while i < recs.len() {
+            let (dst, face) = (recs[i].dst, recs[i].face);
+            self.r.iter_mut().for_each(|v| *v = 0.0);
+            while i < recs.len() && recs[i].dst == dst && recs[i].face == face {
+                let src = recs[i].src as usize;
+                let op = &self.level.t_b2r[i * k_r * kb..(i + 1) * k_r * kb];
+                let b = &self.b[src * kb..(src + 1) * kb];
+                for (j, rj) in self.r.iter_mut().enumerate() {
+                    *rj += dot(&op[j * kb..(j + 1) * kb], b);
+                }
+                i += 1;
+            }
+            let x = dst as usize;
+            let sh = &self.dict.shapes[self.level.shapes[x]];
+            let Some(idx) = sh.u_r_idx[face as usize] else { continue };
+            let o = &mut out[self.offsets[x]..self.offsets[x] + sh.n];
+            for (t, &row) in idx.iter().enumerate() {
+                let row = row as usize;
+                o[t] += dot(&self.dict.u_r[row * k_r..(row + 1) * k_r], &self.r);
+            }
+        }
+    }
+
+    /// Multi-bounce indirect light (§3.6.3): `bounces` evaluations, each fed the previous
+    /// one's indirect light times `albedo_scale` (the walls' albedo relative to the
+    /// dictionary's baked `params.albedo`); the sum of the bounces goes to `out`.
+    pub fn multi_bounce(&mut self, l_d: &[f32], out: &mut [f32], bounces: usize, albedo_scale: f32) {
+        let n = self.texel_count();
+        assert!(l_d.len() == n && out.len() == n, "l_d and out must have texel_count() entries");
+        out.iter_mut().for_each(|v| *v = 0.0);
+        let mut bounce = core::mem::take(&mut self.bounce);
+        let mut scratch = core::mem::take(&mut self.scratch);
+        bounce.copy_from_slice(l_d);
+        for _ in 0..bounces {
+            self.indirect(&bounce, &mut scratch, true);
+            for ((o, s), b) in out.iter_mut().zip(scratch.iter_mut()).zip(bounce.iter_mut()) {
+                *s *= albedo_scale;
+                *o += *s;
+                *b = *s;
+            }
+        }
+        self.bounce = bounce;
+        self.scratch = scratch;
+    }
+
+    /// Writes per-texel values into the padded atlas (`width × height`, row-major): tile
+    /// interiors, then the border records (§4.6).
+    pub fn pad_atlas(&self, texels: &[f32], atlas: &mut [f32]) {
+        let (w, h) = self.level.atlas;
+        assert!(atlas.len() == w * h && texels.len() == self.texel_count(), "atlas and texel sizes");
+        let r2 = self.dict.face_texels;
+        let r = (r2 as f64).sqrt() as usize;
+        for t in self.level.tiles.chunks_exact(4) {
+            let x = t[0] as usize;
+            let sh = &self.dict.shapes[self.level.shapes[x]];
+            let Some(slot) = sh.faces.iter().position(|&f| u32::from(f) == t[1]) else { continue };
+            let base = self.offsets[x] + slot * r2;
+            for j in 0..r {
+                let row = (t[3] as usize + 1 + j) * w + t[2] as usize + 1;
+                atlas[row..row + r].copy_from_slice(&texels[base + j * r..base + (j + 1) * r]);
+            }
+        }
+        for p in self.level.pad.chunks_exact(3) {
+            atlas[p[0] as usize] = texels[self.offsets[p[1] as usize] + p[2] as usize];
+        }
+    }
+}
+
+#[inline]
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    // four partial sums: lets the compiler vectorise without reassociating a single chain
+    let mut s = [0.0f32; 4];
+    let (ca, ra) = a.split_at(a.len() & !3);
+    let (cb, rb) = b.split_at(ca.len().min(b.len()));
+    for (x, y) in ca.chunks_exact(4).zip(cb.chunks_exact(4)) {
+        s[0] += x[0] * y[0];
+        s[1] += x[1] * y[1];
+        s[2] += x[2] * y[2];
+        s[3] += x[3] * y[3];
+    }
+    let mut t = (s[0] + s[1]) + (s[2] + s[3]);
+    for (x, y) in ra.iter().zip(rb) {
+        t += x * y;
+    }
+    t
+}

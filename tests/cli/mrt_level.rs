@@ -1,0 +1,236 @@
+//! `penumbra mrt level` and `penumbra verify mrt` (MRT thesis §3.5.3, §3.6.3, §4.3–4.6).
+
+use crate::mrt::SMALL;
+use crate::{penumbra, run};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// A small cube2d dictionary with interfaces (SMALL settings) in `dir`.
+pub fn small_dict(dir: &Path) -> PathBuf {
+    let out = dir.join("d.mrtd");
+    let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(SMALL).arg("-o").arg(&out));
+    assert_eq!(code, 0, "{stderr}");
+    out
+}
+
+fn level_json(args: &[&str], dict: &Path, out: &Path) -> Value {
+    let (code, stdout, stderr) =
+        run(penumbra().args(["mrt", "level"]).args(args).arg("--dict").arg(dict).arg("-o").arg(out).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).expect("one JSON object")
+}
+
+#[test]
+fn maze_level_keys_round_trip_and_determinism() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("m.mrtl");
+    let toml = dir.path().join("m.toml");
+    let v = level_json(&["--maze", "12", "--seed", "3", "--write-level", toml.to_str().unwrap()], &d, &out);
+    for k in ["blocks", "block_pairs", "records", "bytes", "seconds", "atlas", "pad_records", "max_depth"] {
+        assert!(v.get(k).is_some(), "missing {k}");
+    }
+    assert_eq!(v["blocks"], 12);
+    // a tree maze of 12 blocks: every ordered pair within 8 interfaces of each other
+    let pairs = v["block_pairs"].as_u64().unwrap();
+    assert!(pairs > 11 * 2 && pairs <= 12 * 11, "{pairs}");
+    assert_eq!(v["bytes"].as_u64().unwrap(), std::fs::metadata(&out).unwrap().len());
+    let a = penumbra_asset::AssetFile::open(&out).unwrap();
+    assert_eq!(a.asset().kind().as_str(), "MRTL");
+    let recs = a.asset().section("t_b2r").unwrap().dims().to_vec();
+    assert_eq!(recs, vec![v["records"].as_u64().unwrap() as usize, 8, 12]);
+    // the written level file bakes to the same bytes, with any thread count
+    let again = dir.path().join("again.mrtl");
+    let (code, _, stderr) =
+        run(penumbra().args(["--threads", "1", "mrt", "level"]).arg(&toml).arg("--dict").arg(&d).arg("-o").arg(&again));
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+    // depth 0: no light between blocks
+    let v0 = level_json(&["--maze", "12", "--seed", "3", "--max-depth", "0"], &d, &dir.path().join("z.mrtl"));
+    assert_eq!(v0["block_pairs"], 0);
+}
+
+#[test]
+fn bad_levels_and_old_dictionaries_are_clean_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("x.mrtl");
+    let cases = [
+        ("[[block]]\nshape = \"torus\"\ntranslation = [0, 0, 0]\n", "block 0: shape \"torus\""),
+        (
+            "[[block]]\nshape = \"dead_end\"\ntranslation = [0.5, 0.5, 0.5]\n[[block]]\nshape = \"dead_end\"\n\
+             rotation = 2\ntranslation = [0.5, 0.5, 1.75]\n[[connection]]\na = 0\na_face = \"+z\"\nb = 1\nb_face = \"+z\"\n",
+            "do not coincide",
+        ),
+        (
+            "[[block]]\nshape = \"dead_end\"\ntranslation = [0.5, 0.5, 0.5]\n[[connection]]\na = 0\na_face = \"+z\"\nb = 3\nb_face = \"-z\"\n",
+            "block 3 does not exist",
+        ),
+        ("[[block]]\nshape = \"closed\"\ntranslation = [0, 0, 0]\nrotation = 7\n", "0..=3"),
+        ("[[block]]\nshape = \"closed\"\ntranslaton = [0, 0, 0]\n", "translaton"),
+    ];
+    for (body, what) in cases {
+        let f = dir.path().join("bad.toml");
+        std::fs::write(&f, body).unwrap();
+        let (code, _, stderr) =
+            run(penumbra().args(["mrt", "level"]).arg(&f).arg("--dict").arg(&d).arg("-o").arg(&out));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains("bad.toml") && stderr.contains(what), "{what}: {stderr}");
+        assert!(!out.exists());
+    }
+    // the v1 corpus dictionary has no interfaces: a clear error, not a crash
+    let v1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets/v1/mrt-cube2d-r4.mrtd");
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "level", "--maze", "3", "--dict"]).arg(&v1).arg("-o").arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("kind_version 1"), "{stderr}");
+    // exactly one level source
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "level", "--maze", "3", "--corridor", "4", "--dict"]).arg(&d).arg("-o").arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+}
+
+#[test]
+fn committed_level_schema_is_current() {
+    let (code, stdout, _) = run(penumbra().args(["schema", "--level"]));
+    assert_eq!(code, 0);
+    let committed = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schemas/mrt-level.schema.json"))
+        .expect("schemas/mrt-level.schema.json (run `make schemas`)");
+    assert_eq!(stdout, committed, "schemas/mrt-level.schema.json is stale: run `make schemas`");
+}
+
+#[test]
+fn verify_corridor_interfaces_beat_none_and_report_every_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let png = dir.path().join("top.png");
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "mrt", "--corridor", "5", "--rays", "256", "--bounces", "4", "--dict"])
+        .arg(&d)
+        .arg("--image")
+        .arg(&png)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    for k in ["rel_error_one_bounce", "rel_error_multi_bounce", "ms_runtime", "rel_error_one_bounce_no_interfaces"] {
+        let x = v[k].as_f64().unwrap_or_else(|| panic!("{k}"));
+        assert!(x.is_finite() && x > 0.0, "{k} = {x}");
+    }
+    assert_eq!(v["per_block"].as_array().unwrap().len(), 5);
+    let with = v["rel_error_one_bounce"].as_f64().unwrap();
+    let without = v["rel_error_one_bounce_no_interfaces"].as_f64().unwrap();
+    // the light sits in block 0: without interfaces the other four blocks get nothing
+    assert!(with < 0.5 * without, "{with} vs {without}");
+    assert!(with < 0.2 && v["rel_error_multi_bounce"].as_f64().unwrap() < 0.3, "{v}");
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // the baked level asset verifies to the same figures as the level it came from
+    let asset = dir.path().join("c5.mrtl");
+    level_json(&["--corridor", "5"], &d, &asset);
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "mrt", "--rays", "256", "--bounces", "4", "--dict"])
+        .arg(&d)
+        .arg("--level")
+        .arg(&asset)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let w: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(w["rel_error_one_bounce"], v["rel_error_one_bounce"]);
+    assert_eq!(w["block_pairs"], v["block_pairs"]);
+    // … and only with its own dictionary
+    let other = dir.path().join("other.mrtd");
+    let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(SMALL).args(["--seed", "5", "-o"]).arg(&other));
+    assert_eq!(code, 0, "{stderr}");
+    let (code, _, stderr) = run(penumbra().args(["verify", "mrt", "--dict"]).arg(&other).arg("--level").arg(&asset));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("another dictionary"), "{stderr}");
+    // a light outside every block is a clean error
+    let lights = dir.path().join("l.toml");
+    std::fs::write(&lights, "[[light]]\nposition = [9.0, 0.5, 0.5]\n").unwrap();
+    let (code, _, stderr) =
+        run(penumbra().args(["verify", "mrt", "--corridor", "3", "--dict"]).arg(&d).arg("--lights").arg(&lights));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("l.toml") && stderr.contains("light 0"), "{stderr}");
+}
+
+#[test]
+fn bake_config_mrt_level_stage_bakes_then_skips_and_validates() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let mrt = "[mrt]\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\nvector_rays = 64\nvolume_res = 2\nprobe_rays = 64\n\
+               test_lights = 3\nreference_rays = 128\nlf_spatial = 4\nlf_dir = 6\nlf_super = 2\nk_rlf = 24\nk_r = 8\n\
+               response_rays = 64\n";
+    std::fs::write(&cfg, format!("output_dir = \"out\"\n{mrt}[mrt_level]\nmaze = 6\nseed = 2\n")).unwrap();
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let st = v["stages"].as_array().unwrap().iter().find(|s| s["name"] == "mrt_level").unwrap().clone();
+    assert_eq!(st["status"], "baked");
+    assert_eq!(st["kind"], "MRTL");
+    assert_eq!(st["metrics"]["blocks"], 6);
+    let (_, stdout, _) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["stages"].as_array().unwrap().iter().all(|s| s["status"] == "up-to-date"), "{v}");
+    for (body, what) in [
+        ("[mrt_level]\nmaze = 3\n".to_string(), "needs the [mrt] stage"),
+        (format!("{mrt}[mrt_level]\nmaze = 3\nlevel = \"l.toml\"\n"), "exactly one of"),
+        (format!("{mrt}[mrt_level]\nmaze = 0\n"), "mrt_level.maze"),
+        (format!("{mrt}interfaces = false\n[mrt_level]\nmaze = 3\n"), "mrt.interfaces"),
+    ] {
+        std::fs::write(&cfg, format!("output_dir = \"out2\"\n{body}")).unwrap();
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(what), "{what}: {stderr}");
+    }
+}
+
+#[test]
+fn runtime_places_texels_in_the_padded_atlas_and_adds_light_only_through_records() {
+    use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("l.mrtl");
+    level_json(&["--l-turn", "1", "--max-depth", "1"], &d, &out);
+    let df = penumbra_asset::AssetFile::open(&d).unwrap();
+    let lf = penumbra_asset::AssetFile::open(&out).unwrap();
+    let (da, la) = (df.asset(), lf.asset());
+    let rd = MrtDictionary::from_asset(&da).unwrap();
+    let rl = MrtLevel::from_asset(&la, &rd).unwrap();
+    let r2 = rd.face_texels;
+    let r = (r2 as f64).sqrt() as usize;
+    let tiles: Vec<u32> = rl.tiles.to_vec();
+    let (w, h) = rl.atlas;
+    let mut rt = MrtRuntime::new(rd, rl);
+    let n = rt.texel_count();
+    let offsets = rt.offsets().to_vec();
+    // texel values that name their block and texel
+    let vals: Vec<f32> = (0..n).map(|i| i as f32).collect();
+    let mut atlas = vec![-1.0f32; w * h];
+    rt.pad_atlas(&vals, &mut atlas);
+    for t in tiles.chunks_exact(4) {
+        let (b, f, x0, y0) = (t[0] as usize, t[1] as u8, t[2] as usize, t[3] as usize);
+        let sh = &rt.dictionary().shapes[rt.level().shapes[b]];
+        let slot = sh.faces.iter().position(|&x| x == f).unwrap();
+        for j in 0..r {
+            for i in 0..r {
+                let want = (offsets[b] + slot * r2 + j * r + i) as f32;
+                assert_eq!(atlas[(y0 + 1 + j) * w + x0 + 1 + i], want);
+            }
+        }
+        // every border pixel is written
+        for i in 0..r + 2 {
+            for (x, y) in [(x0 + i, y0), (x0 + i, y0 + r + 1), (x0, y0 + i), (x0 + r + 1, y0 + i)] {
+                assert!(atlas[y * w + x] >= 0.0, "tile {t:?} border ({x},{y})");
+            }
+        }
+    }
+    // light in block 0 only: with depth 1 the interfaces light block 1 and nothing else
+    let mut l_d = vec![0.0f32; n];
+    l_d[offsets[0]..offsets[1]].iter_mut().for_each(|v| *v = 1.0);
+    let (mut with, mut without) = (vec![0.0f32; n], vec![0.0f32; n]);
+    rt.indirect(&l_d, &mut with, true);
+    rt.indirect(&l_d, &mut without, false);
+    let diff = |b: usize| (offsets[b]..offsets[b + 1]).map(|i| (with[i] - without[i]).abs()).fold(0.0f32, f32::max);
+    assert!(without[offsets[1]..].iter().all(|&v| v == 0.0));
+    assert!(diff(1) > 0.0 && diff(0) == 0.0 && diff(2) == 0.0);
+}
