@@ -11,13 +11,10 @@ use penumbra_geometry::env::Rotation;
 use penumbra_geometry::{CubeMap, EnvMap, TriMesh};
 use penumbra_math::progress::NoProgress;
 use penumbra_runtime::fiv::{FivShader, FivTable, PlacedOccluder, ShadeOptions};
-use std::path::PathBuf;
 use std::time::Duration;
 
 fn inputs() -> (String, TriMesh, EnvMap) {
-    let data = std::env::var_os("PENUMBRA_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data"));
+    let data = penumbra_testkit::shared_data_dir();
     let mesh = penumbra_geometry::load_mesh(data.join("meshes/stanford-bunny.obj"));
     let env = penumbra_geometry::load_env_map(data.join("env/grace_latlong.exr"));
     match (mesh, env) {

@@ -9,7 +9,6 @@
 
 #![allow(clippy::print_stdout, clippy::print_stderr)]
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use penumbra_geometry::load_mesh;
@@ -25,9 +24,7 @@ fn fit(scene: &penumbra_geometry::Scene, n: usize, method: Method) -> (FitResult
 }
 
 fn main() {
-    let data = std::env::var_os("PENUMBRA_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data"));
+    let data = penumbra_testkit::shared_data_dir();
     if !data.is_dir() {
         eprintln!("skipping the spheres benchmark: {} not found", data.display());
         return;

@@ -36,15 +36,7 @@ pub fn run(cmd: &mut Command) -> (i32, String, String) {
 
 /// `../shared/data` (or `$PENUMBRA_SHARED_DATA`) if present.
 pub fn shared_data() -> Option<PathBuf> {
-    let p = std::env::var_os("PENUMBRA_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data"));
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: shared data not found at {} (set PENUMBRA_SHARED_DATA)", p.display());
-        None
-    }
+    penumbra_testkit::shared_data("this test")
 }
 
 /// Files in a directory (for "no stray temp files" checks).

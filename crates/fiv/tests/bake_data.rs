@@ -5,24 +5,10 @@
 
 use penumbra_fiv::*;
 use penumbra_geometry::{CubeMap, load_mesh};
-use std::path::PathBuf;
-
-fn shared_data() -> Option<PathBuf> {
-    let dir = match std::env::var_os("PENUMBRA_SHARED_DATA") {
-        Some(d) => PathBuf::from(d),
-        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
-    };
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: shared data directory {} not found (set PENUMBRA_SHARED_DATA)", dir.display());
-        None
-    }
-}
 
 #[test]
 fn culling_and_certificates_change_no_bit_on_the_scanned_bunny() {
-    let Some(data) = shared_data() else { return };
+    let Some(data) = penumbra_testkit::shared_data("the scanned-bunny FIV test") else { return };
     for name in ["stanford-bunny.obj", "bunny_closed_3k.obj"] {
         let (scene, _) = load_mesh(data.join("meshes").join(name)).unwrap();
         let occ = Occluder::new(scene.mesh).unwrap();

@@ -112,10 +112,7 @@ fn skin_requires_a_skinned_scene() {
 
 #[test]
 fn fox_skin_coverage_on_its_animations() {
-    let data = match std::env::var_os("PENUMBRA_SHARED_DATA") {
-        Some(d) => std::path::PathBuf::from(d),
-        None => std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
-    };
+    let data = penumbra_testkit::shared_data_dir();
     let path = data.join("gltf/Fox/Fox.glb");
     if !path.is_file() {
         eprintln!("skipping fox_skin_coverage_on_its_animations: {} not found", path.display());

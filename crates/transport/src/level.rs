@@ -293,24 +293,7 @@ pub fn maze(n: usize, seed: u64, missing: &[u8]) -> Result<Level, LevelError> {
         cells.push(c);
         edges.push((b, f, i));
     }
-    let mut open = vec![0u8; n];
-    for &(b, f, c) in &edges {
-        open[b] |= 1 << f;
-        open[c] |= 1 << (f ^ 1);
-    }
-    let mut blocks = Vec::with_capacity(n);
-    for (i, &(x, z)) in cells.iter().enumerate() {
-        let (shape, rotation) = fit_shape(missing, open[i]).ok_or_else(|| LevelError::Block {
-            index: i,
-            message: format!("the dictionary has no shape with openings {:06b} (world faces)", open[i]),
-        })?;
-        blocks.push(Block { shape, rotation, translation: [x as f64 + 0.5, 0.5, z as f64 + 0.5], scale: [1.0; 3] });
-    }
-    let connections = edges
-        .iter()
-        .map(|&(a, f, b)| Connection { a, fa: blocks[a].local_face(f), b, fb: blocks[b].local_face(f ^ 1) })
-        .collect();
-    Ok(Level { blocks, connections })
+    grid_level(&cells, &edges, missing)
 }
 
 /// A straight corridor of `n ≥ 2` blocks along +Z: dead end, `n − 2` straights, dead end.
@@ -333,28 +316,31 @@ fn line(steps: &[(i64, i64)], missing: &[u8]) -> Result<Level, LevelError> {
         cells.push((x + dx, z + dz));
     }
     let face_of = |dx: i64, dz: i64| STEPS.iter().find(|s| s.0 == dx && s.1 == dz).map_or(5, |s| s.2);
-    let n = cells.len();
-    let mut open = vec![0u8; n];
-    for (i, &(dx, dz)) in steps.iter().enumerate() {
-        let f = face_of(dx, dz);
-        open[i] |= 1 << f;
-        open[i + 1] |= 1 << (f ^ 1);
+    let edges: Vec<(usize, usize, usize)> =
+        steps.iter().enumerate().map(|(i, &(dx, dz))| (i, face_of(dx, dz), i + 1)).collect();
+    grid_level(&cells, &edges, missing)
+}
+
+/// The level of unit blocks at grid `cells` (cell `(i, k)` centred at `(i + ½, ½, k + ½)`)
+/// joined by `edges` `(block, world face, other block)`: each block gets the dictionary shape
+/// and rotation whose openings are exactly its edges.
+fn grid_level(cells: &[(i64, i64)], edges: &[(usize, usize, usize)], missing: &[u8]) -> Result<Level, LevelError> {
+    let mut open = vec![0u8; cells.len()];
+    for &(b, f, c) in edges {
+        open[b] |= 1 << f;
+        open[c] |= 1 << (f ^ 1);
     }
-    let mut blocks = Vec::with_capacity(n);
+    let mut blocks = Vec::with_capacity(cells.len());
     for (i, &(x, z)) in cells.iter().enumerate() {
         let (shape, rotation) = fit_shape(missing, open[i]).ok_or_else(|| LevelError::Block {
             index: i,
-            message: format!("the dictionary has no shape with openings {:06b}", open[i]),
+            message: format!("the dictionary has no shape with openings {:06b} (world faces)", open[i]),
         })?;
         blocks.push(Block { shape, rotation, translation: [x as f64 + 0.5, 0.5, z as f64 + 0.5], scale: [1.0; 3] });
     }
-    let connections = steps
+    let connections = edges
         .iter()
-        .enumerate()
-        .map(|(i, &(dx, dz))| {
-            let f = face_of(dx, dz);
-            Connection { a: i, fa: blocks[i].local_face(f), b: i + 1, fb: blocks[i + 1].local_face(f ^ 1) }
-        })
+        .map(|&(a, f, b)| Connection { a, fa: blocks[a].local_face(f), b, fb: blocks[b].local_face(f ^ 1) })
         .collect();
     Ok(Level { blocks, connections })
 }

@@ -22,7 +22,7 @@
 //! `((i_y·S + i_r)·D + j₂)·D + j₁`. Continuous lookups interpolate bilinearly in both the
 //! spatial and the directional square (16 taps), clamped to the edge like texels.
 
-use crate::shape::{FACE_FRAMES, face_axis};
+use crate::shape::{FACE_FRAMES, bilinear_1d, face_axis};
 use core::f64::consts::PI;
 
 /// World up.
@@ -95,10 +95,10 @@ impl LfGrid {
     /// The 16 `(sample, weight)` taps of a continuous lookup at `(r, y)`, square `(s₁, s₂)`.
     #[inline]
     pub fn taps(&self, r: f64, y: f64, s1: f64, s2: f64) -> [(usize, f64); 16] {
-        let (r0, r1, fr) = lin(r, self.spatial);
-        let (y0, y1, fy) = lin(y, self.spatial);
-        let (a0, a1, fa) = lin(s1, self.dir);
-        let (b0, b1, fb) = lin(s2, self.dir);
+        let (r0, r1, fr) = bilinear_1d(r, self.spatial);
+        let (y0, y1, fy) = bilinear_1d(y, self.spatial);
+        let (a0, a1, fa) = bilinear_1d(s1, self.dir);
+        let (b0, b1, fb) = bilinear_1d(s2, self.dir);
         let (s, d) = (self.spatial, self.dir);
         let sp = [
             (y0 * s + r0, (1.0 - fr) * (1.0 - fy)),
@@ -120,21 +120,6 @@ impl LfGrid {
         }
         out
     }
-}
-
-/// Clamp-to-edge linear interpolation over `n` nodes at `(i+½)/n`: `(i₀, i₁, frac)`.
-#[inline]
-fn lin(u: f64, n: usize) -> (usize, usize, f64) {
-    let s = u * n as f64 - 0.5;
-    if s <= 0.0 {
-        return (0, 0, 0.0);
-    }
-    let last = (n - 1) as f64;
-    if s >= last {
-        return (n - 1, n - 1, 0.0);
-    }
-    let i0 = s as usize;
-    (i0, i0 + 1, s - i0 as f64)
 }
 
 /// Square `(s₁, s₂) ∈ [0,1]²` → local direction `(a, b, c)`, `c ≥ 0` (concentric map, Malley).

@@ -240,7 +240,7 @@ impl Texels {
 /// Texel pair and weight of a clamp-to-edge linear read at `u ∈ [0,1]` over `r` texels
 /// centred at `(i+½)/r`.
 #[inline]
-fn bilinear_1d(u: f64, r: usize) -> (usize, usize, f64) {
+pub(crate) fn bilinear_1d(u: f64, r: usize) -> (usize, usize, f64) {
     let s = u * r as f64 - 0.5;
     if s <= 0.0 {
         return (0, 0, 0.0);
