@@ -4,6 +4,7 @@
 
 mod bake;
 mod compat;
+mod drt;
 mod fiv;
 mod inspect;
 mod mrt;

@@ -116,7 +116,7 @@ fn asset_holds_every_section_and_its_operators_reproduce_a_known_answer() {
     let a = file.asset();
     assert_eq!(a.kind().as_str(), "MRTD");
     let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
-    assert_eq!(meta["kind_version"], 2);
+    assert_eq!(meta["kind_version"], 3);
     // the closed cube has no interfaces: a version-2 asset without interface sections
     assert_eq!(meta["interfaces"], serde_json::json!([]));
     assert!(a.section("iface.u_r").is_none());

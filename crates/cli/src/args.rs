@@ -36,6 +36,8 @@ pub enum Command {
     /// Bake FIV occlusion textures for an occluder under an environment (FIV §4.2);
     /// `penumbra fiv merge` joins shards.
     Fiv(FivArgs),
+    /// Bake Delta Radiance Transfer clutter operators for a level (MRT thesis ch. 5).
+    Drt(crate::commands::drt::DrtArgs),
     /// Measure an asset's accuracy against the brute-force reference.
     Verify(VerifyArgs),
     /// Run one bake over a grid of its knobs and plot error against cost.
@@ -48,8 +50,11 @@ pub enum Command {
 #[derive(Debug, clap::Args)]
 pub struct SchemaArgs {
     /// The schema of the MRT level file (`penumbra mrt level`) instead.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "clutter")]
     pub level: bool,
+    /// The schema of the DRT clutter file (`penumbra drt --clutter`) instead.
+    #[arg(long)]
+    pub clutter: bool,
 }
 
 fn parse_tolerance(s: &str) -> Result<f64, String> {
@@ -327,6 +332,9 @@ pub enum VerifyCommand {
     /// MRT runtime (dictionary + level operators) against a path tracer on the same blocks:
     /// relative error of indirect light, one bounce and multi-bounce (MRT thesis §3.6).
     Mrt(crate::commands::verify_mrt::VerifyMrtArgs),
+    /// MRT and MRT + DRT on a level with clutter against a path tracer that sees the clutter
+    /// (MRT thesis ch. 5): indirect shadows and interreflections, scene and clutter.
+    Drt(crate::commands::verify_drt::VerifyDrtArgs),
 }
 
 /// Partial-occluder handling at run time (FIV §4.3.1).

@@ -6,6 +6,7 @@
 //!
 //! Paths inside a config are relative to the directory of the config file.
 
+pub mod clutter;
 mod error;
 pub mod level;
 mod types;

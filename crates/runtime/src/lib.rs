@@ -14,6 +14,7 @@
 //! - [`mrt`]: Modular Radiance Transfer: indirect light of a level of dictionary blocks from
 //!   direct light at their texels (`MRTD` + `MRTL`), one or many bounces, padded atlas.
 
+pub mod drt;
 mod error;
 pub mod fiv;
 pub mod mrt;

@@ -284,6 +284,12 @@ impl<'a> MrtRuntime<'a> {
         &self.level
     }
 
+    /// `b` of every block from the last [`MrtRuntime::indirect`] (block `x` at
+    /// `x·level().k_b`, its shape's `k_b` entries; DRT reads them).
+    pub fn coefficients(&self) -> &[f32] {
+        &self.b
+    }
+
     /// One-bounce indirect irradiance at every texel from direct irradiance `l_d` (both in
     /// block order, each block in its shape's texel layout). `interfaces = false` keeps the
     /// light inside each block (no `T_b→r`), for comparison.

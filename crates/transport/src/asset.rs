@@ -4,7 +4,9 @@
 //! Per-shape sections are named `<shape>.<section>` (e.g. `closed.u_b`). Kind version 2 adds
 //! the interface operators (MRT thesis §3.4.1, §4.2) as optional sections: shared `iface.*`
 //! and per interface `<shape>.r_b2rlf.<face>`, `<shape>.u_r_idx.<face>`. A version-1 asset is
-//! a version-2 asset without interfaces.
+//! a version-2 asset without interfaces. Kind version 3 adds `<shape>.l_imp`, the implicit
+//! lights `L_imp = P S Ṽ_m` (§3.3.1.1) that DRT's clutter operators are built against (ch. 5);
+//! older dictionaries still load everywhere except in `penumbra drt`.
 
 use crate::TransportError;
 use crate::dict::{DictBake, MRTD_KIND_VERSION};
@@ -15,6 +17,9 @@ use serde_json::json;
 /// Section suffixes every shape has, in file order.
 pub const SHAPE_SECTIONS: &[&str] =
     &["faces", "positions", "normals", "u_b", "t_d2b", "u_bvec", "probes", "u_bvol", "sigma_d", "prior_s", "sigma_m"];
+
+/// Per-shape sections added in kind version 3 (after [`SHAPE_SECTIONS`] in file order).
+pub const SHAPE_SECTIONS_V3: &[&str] = &["l_imp"];
 
 /// Shared interface sections (kind version 2), in file order.
 pub const INTERFACE_SECTIONS: &[&str] = &[
@@ -33,6 +38,15 @@ pub fn section_names(shapes: &[&str]) -> Vec<String> {
     let mut v = vec!["meta".to_string(), "face_frames".to_string()];
     for s in shapes {
         v.extend(SHAPE_SECTIONS.iter().map(|x| format!("{s}.{x}")));
+    }
+    v
+}
+
+/// Names of every section of an MRTD v3 asset (v2 plus `<shape>.l_imp`), for `require_known`.
+pub fn section_names_v3(shapes: &[&str], interfaces: &[(&str, usize)]) -> Vec<String> {
+    let mut v = section_names_v2(shapes, interfaces);
+    for s in shapes {
+        v.extend(SHAPE_SECTIONS_V3.iter().map(|x| format!("{s}.{x}")));
     }
     v
 }
@@ -100,6 +114,7 @@ pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
             "sh": "real orthonormal; index i = l(l+1)+m; Condon-Shortley as in graphics: y(1,-1) = -sqrt(3/4pi) y, y(1,0) = sqrt(3/4pi) z, y(1,1) = -sqrt(3/4pi) x",
             "u_bvec": "OHLSH (MRT thesis App. B) of incident radiance in the texel frame (x = face u, y = face v, z = inward normal); irradiance for unit normal m (texel frame) = pi*a0*y0 + (2pi/3)*sum_m a1m*y1m(m)",
             "interfaces": "lightfield frame of travel direction t (horizontal), r = y x t; R_b2rlf maps a shape's b to reduced lightfield coefficients c of the light leaving through the face; iface.r_{straight,left,right} map c entering a block (travel t) to c leaving it straight / turned +90 deg about +Y (left) / -90 deg (right); iface.t_rlf2r maps c entering to response coefficients r; irradiance of a texel t of a block lit through its face g = u_r[u_r_idx.g[t]] . r (MRT thesis 3.4.1, 4.2)",
+            "l_imp": "implicit lights L_imp = P S V_m (n x k_b, MRT thesis 3.3.1.1): U_b = F L_imp; l_imp . b is the direct-light pattern in the prior whose one bounce U_b . b is; DRT (ch. 5) gathers it",
             "u_bvol": "order-3 SH (9) of incident radiance at probe centres, world (shape) frame; irradiance for normal m = sum_l Ahat_l sum_m c_lm y_lm(m), Ahat = (pi, 2pi/3, pi/4)",
         },
         "params": p.to_json(),
@@ -144,6 +159,8 @@ pub fn to_asset(b: &DictBake, cache_key: Option<&str>) -> Result<AssetBuilder, T
         a.add_f32(&sec("sigma_d"), &[s.sigma_d_all.len()], &f32s(s.sigma_d_all.iter().copied())).map_err(err)?;
         a.add_f32(&sec("prior_s"), &[s.s.len()], &f32s(s.s.iter().copied())).map_err(err)?;
         a.add_f32(&sec("sigma_m"), &[r.sigma_m.len()], &f32s(r.sigma_m.iter().copied())).map_err(err)?;
+        a.add_f32(&sec("l_imp"), &[n, kb], &f32s((0..n).flat_map(|i| (0..kb).map(move |j| r.l_imp[(i, j)]))))
+            .map_err(err)?;
     }
     if let Some(ib) = &b.interfaces {
         let mat = |m: &faer::Mat<f64>| f32s((0..m.nrows()).flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)])));

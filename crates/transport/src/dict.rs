@@ -20,8 +20,9 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Kind version of the `MRTD` sections this bake writes (2: optional interface sections;
-/// version 1 assets still load as dictionaries without interfaces).
-pub const MRTD_KIND_VERSION: u32 = 2;
+/// 3: `<shape>.l_imp` for DRT; version 1 and 2 assets still load, version 1 as a dictionary
+/// without interfaces).
+pub const MRTD_KIND_VERSION: u32 = 3;
 
 /// Energy fractions of Table 3.2.
 pub const TABLE_3_2_FRACTIONS: [f64; 3] = [0.80, 0.90, 0.95];

@@ -91,6 +91,42 @@ impl LevelGeometry<'_> {
         Walk::Lost
     }
 
+    /// The first wall a ray hits, and in `segs` the blocks it crosses on the way, each with
+    /// the ray parameters where it enters and leaves it (in order; cleared first).
+    pub fn trace_segments(
+        &self,
+        mut b: usize,
+        mut p: [f64; 3],
+        d: [f64; 3],
+        segs: &mut Vec<(usize, f64, f64)>,
+    ) -> Option<WallHit> {
+        segs.clear();
+        let mut travelled = 0.0;
+        for _ in 0..4 * self.level.blocks.len() + 4 {
+            let blk = &self.level.blocks[b];
+            let pl = blk.to_local(p).map(|x| x.clamp(0.0, 1.0));
+            let dl = blk.dir_to_local(d);
+            let (f, t) = exit_face(pl, dl);
+            if f == usize::MAX {
+                return None;
+            }
+            segs.push((b, travelled, travelled + t));
+            let q = add(p, t, d);
+            if self.missing[blk.shape] & (1 << f) == 0 {
+                return Some(WallHit { block: b, face: f, point: q });
+            }
+            match self.links[b][f] {
+                Some((y, _)) => {
+                    b = y;
+                    p = q;
+                    travelled += t;
+                }
+                None => return None,
+            }
+        }
+        None
+    }
+
     /// The first wall a ray hits.
     pub fn trace(&self, b: usize, p: [f64; 3], d: [f64; 3]) -> Option<WallHit> {
         match self.walk(b, p, d, f64::INFINITY) {

@@ -15,12 +15,23 @@
 //! - [`sparse`]: row-compressed resampling operators.
 //! - [`interface`]: `H_lf`, `H_rlf` with enrichment, `R_b→rlf`, `R_↑/←/→`, `U_r`, `T_rlf→r`.
 //!
+//! Delta Radiance Transfer (ch. 5, `penumbra drt`):
+//! - [`clutter`]: clutter instances (boxes, meshes), their texels, charts and ray queries.
+//! - [`drt`]: `ΔU_b`, `ΔU_c`, `C_b` against the dictionary's `L_imp`, inpainting, neighbourhood.
+//! - [`drt_asset`]: the `DRTO` writer; [`drt_reference`]: the path tracer with clutter;
+//!   [`drt_examples`]: the built-in scenes (pillars, Cornell box, maze with boxes).
+//!
 //! All bake math is f64; linear algebra runs `Par::Seq` inside a decomposition and rayon
 //! across independent work, so the output bytes do not depend on the thread count.
 
 pub mod asset;
 pub mod balance;
+pub mod clutter;
 pub mod dict;
+pub mod drt;
+pub mod drt_asset;
+pub mod drt_examples;
+pub mod drt_reference;
 pub mod gather;
 pub mod interface;
 pub mod level;

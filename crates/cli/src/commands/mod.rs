@@ -1,6 +1,7 @@
 //! Command implementations.
 
 pub mod bake;
+pub mod drt;
 pub mod fiv;
 pub mod inspect;
 pub mod mrt;
@@ -8,6 +9,7 @@ pub mod mrt_level;
 pub mod spheres;
 pub mod sweep_shadows;
 pub mod tables;
+pub mod verify_drt;
 pub mod verify_fiv;
 pub mod verify_mrt;
 pub mod verify_shadows;
@@ -28,16 +30,25 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
         Command::Fiv(a) => fiv::run(&a, cli.progress),
+        Command::Drt(a) => drt::run(&a, cli.progress),
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
             crate::args::VerifyCommand::Mrt(v) => verify_mrt::run(&v, cli.progress),
+            crate::args::VerifyCommand::Drt(v) => verify_drt::run(&v, cli.progress),
         },
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
         },
         Command::Schema(a) => {
-            print!("{}", if a.level { penumbra_config::level_schema_json() } else { penumbra_config::schema_json() });
+            let s = if a.level {
+                penumbra_config::level_schema_json()
+            } else if a.clutter {
+                penumbra_config::clutter::clutter_schema_json()
+            } else {
+                penumbra_config::schema_json()
+            };
+            print!("{s}");
             Ok(ExitCode::Ok)
         }
     }

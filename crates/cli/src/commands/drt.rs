@@ -1,0 +1,377 @@
+//! `penumbra drt`: Delta Radiance Transfer clutter operators for a level (MRT thesis ch. 5).
+//! The scene setup (dictionary, level, clutter, lights) is shared with `penumbra verify drt`.
+
+use crate::commands::mrt_level::{LevelSource, load_dict, resolve, to_file, validated};
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::ensure_parent;
+use crate::progress::{ProgressMode, Reporter};
+use anyhow::{Context, anyhow};
+use clap::Args;
+use penumbra_asset::AssetFile;
+use penumbra_config::clutter::{BoxFacesName, load_clutter};
+use penumbra_transport::clutter::{BoxFaces, ClutterScene, ClutterShape, ClutterSpec, quat_y};
+use penumbra_transport::drt::{DrtDict, DrtParams, KcMode, bake};
+use penumbra_transport::drt_asset::{DrtInputs, to_asset};
+use penumbra_transport::drt_examples::{EXAMPLES, example};
+use penumbra_transport::level::{Level, Links};
+use penumbra_transport::level_ops::DictOps;
+use penumbra_transport::level_reference::PointLight;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where a DRT scene comes from (shared by `drt` and `verify drt`).
+#[derive(Debug, Args)]
+pub struct DrtSceneArgs {
+    /// The dictionary (.mrtd, kind_version 3: it carries the implicit lights L_imp).
+    #[arg(long)]
+    pub dict: PathBuf,
+    /// The level: a level file (TOML) or a baked level asset (.mrtl, baked with --dict).
+    /// Omit with --maze/--corridor/--l-turn or --example.
+    #[arg(long)]
+    pub level: Option<PathBuf>,
+    /// Procedural level (with --example maze-boxes: the maze's size and seed).
+    #[command(flatten)]
+    pub source: LevelSource,
+    /// A built-in scene: pillars (Fig. 5.4), cornell (Fig. 5.3), maze-boxes (--maze N --seed S
+    /// --boxes M).
+    #[arg(long, value_name = "NAME")]
+    pub example: Option<String>,
+    /// Boxes of --example maze-boxes.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    pub boxes: u32,
+    /// Clutter file (TOML, schemas/clutter.schema.json); adds to an --example's clutter.
+    #[arg(long, value_name = "FILE")]
+    pub clutter: Option<PathBuf>,
+    /// Texels per box-face edge, and per mesh's largest extent (thesis: 16).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=64))]
+    pub clutter_res: u32,
+    /// Charts (basis functions) per box-face edge: 1 = one constant per face (the thesis's
+    /// basis), S = S×S piecewise-constant charts per face (default 2: docs/drt.md measures it).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub clutter_basis_res: u32,
+}
+
+/// A resolved DRT scene.
+#[derive(Debug)]
+pub struct DrtScene {
+    /// The dictionary's level operators view.
+    pub ops: DictOps,
+    /// The dictionary's DRT view.
+    pub dict: DrtDict,
+    /// Level.
+    pub level: Level,
+    /// Its links.
+    pub links: Links,
+    /// What the level is (for reports).
+    pub what: String,
+    /// The baked level asset, when given (bytes, its depth limit).
+    pub level_asset: Option<(Vec<u8>, usize)>,
+    /// Clutter.
+    pub clutter: ClutterScene,
+    /// Normalised clutter descriptions and their hashes.
+    pub clutter_json: Vec<Value>,
+    /// The example's lights, if an example.
+    pub example_lights: Option<Vec<PointLight>>,
+}
+
+fn box_json(s: &ClutterSpec) -> Value {
+    json!({"translate": s.translate, "rotate": s.rotate, "scale": s.scale, "albedo": s.albedo})
+}
+
+/// Reads the clutter file's instances (meshes relative to the file).
+fn clutter_from_file(path: &Path, start: usize) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliError> {
+    let f = load_clutter(path)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut specs = Vec::new();
+    let mut desc = Vec::new();
+    for (i, c) in f.clutter.iter().enumerate() {
+        let name = c.name.clone().unwrap_or_else(|| format!("clutter{}", start + i));
+        let rotate = match (c.rotate, c.rotate_y_deg) {
+            (Some(q), _) => q,
+            (None, Some(d)) => quat_y(d),
+            (None, None) => [0.0, 0.0, 0.0, 1.0],
+        };
+        let (shape, what) = if let Some(b) = &c.box_ {
+            let faces = match b.faces.unwrap_or(BoxFacesName::All) {
+                BoxFacesName::All => BoxFaces::All,
+                BoxFacesName::NoBottom => BoxFaces::NoBottom,
+            };
+            let fname = if faces == BoxFaces::All { "all" } else { "no-bottom" };
+            (ClutterShape::Box { size: b.size, faces }, json!({"box": {"size": b.size, "faces": fname}}))
+        } else {
+            let rel = c.mesh.as_deref().unwrap_or_default();
+            let mp = base.join(rel);
+            let bytes = std::fs::read(&mp)
+                .with_context(|| format!("{}: clutter[{i}]: cannot read mesh {}", path.display(), mp.display()))?;
+            let (scene, _) = penumbra_geometry::load_mesh(&mp)
+                .map_err(|e| CliError::input(anyhow!("{}: clutter[{i}]: {e}", path.display())))?;
+            let scene = match &c.node {
+                None => scene,
+                Some(n) => scene.subset_by_node_name(n).ok_or_else(|| {
+                    let names: Vec<&str> = scene.nodes.iter().filter_map(|x| x.name.as_deref()).collect();
+                    CliError::input(anyhow!(
+                        "{}: clutter[{i}].node {n:?}: no triangles belong to a node of that name (nodes: {})",
+                        path.display(),
+                        names.join(", ")
+                    ))
+                })?,
+            };
+            let h = blake3::hash(&bytes).to_hex().to_string();
+            (ClutterShape::Mesh(scene.mesh), json!({"mesh": rel, "mesh_blake3": h, "node": c.node}))
+        };
+        let spec = ClutterSpec {
+            name,
+            shape,
+            translate: c.translate,
+            rotate,
+            scale: c.scale.unwrap_or(1.0),
+            albedo: c.albedo.map_or([0.6; 3], |a| a.rgb()),
+        };
+        let mut d = box_json(&spec);
+        if let (Some(o), Some(w)) = (d.as_object_mut(), what.as_object()) {
+            o.extend(w.clone());
+            o.insert("name".into(), json!(spec.name));
+        }
+        desc.push(d);
+        specs.push(spec);
+    }
+    Ok((specs, desc))
+}
+
+/// Resolves the scene of `a`.
+pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
+    let ops = load_dict(&a.dict)?;
+    let f = AssetFile::open(&a.dict).with_context(|| format!("cannot open dictionary {}", a.dict.display()))?;
+    let dict = DrtDict::from_asset(&f.asset()).map_err(|e| CliError::input(anyhow!("{}: {e}", a.dict.display())))?;
+    let mut specs = Vec::new();
+    let mut desc = Vec::new();
+    let mut example_lights = None;
+    let mut level_asset = None;
+    let (level, links, what) = if let Some(name) = &a.example {
+        if a.level.is_some() || a.source.corridor.is_some() || a.source.l_turn.is_some() {
+            return Err(CliError::input(anyhow!(
+                "--example brings its own level: give no --level/--corridor/--l-turn"
+            )));
+        }
+        if name != "maze-boxes" && a.source.maze.is_some() {
+            return Err(CliError::input(anyhow!("--maze goes with --example maze-boxes only")));
+        }
+        let ex = example(
+            name,
+            &ops.names,
+            &ops.missing,
+            a.source.maze.unwrap_or(41) as usize,
+            a.source.seed,
+            a.boxes as usize,
+        )
+        .map_err(|e| CliError::input(anyhow!("--example {name}: {e} (known: {})", EXAMPLES.join(", "))))?;
+        let links = ex
+            .level
+            .validate(&ops.names, &ops.missing)
+            .map_err(|e| CliError::internal(anyhow!("example {name}: {e}")))?;
+        for s in &ex.clutter {
+            let mut d = box_json(s);
+            if let (Some(o), ClutterShape::Box { size, faces }) = (d.as_object_mut(), &s.shape) {
+                let fname = if *faces == BoxFaces::All { "all" } else { "no-bottom" };
+                o.insert("box".into(), json!({"size": size, "faces": fname}));
+                o.insert("name".into(), json!(s.name));
+            }
+            desc.push(d);
+        }
+        specs.extend(ex.clutter);
+        example_lights = Some(ex.lights);
+        (ex.level, links, ex.name)
+    } else if let Some(p) = a.level.as_ref().filter(|p| std::fs::read(p).is_ok_and(|b| b.starts_with(b"PENUMBRA"))) {
+        let bytes = std::fs::read(p).with_context(|| format!("cannot read level {}", p.display()))?;
+        let asset =
+            penumbra_asset::OwnedAsset::parse(&bytes).map_err(|e| CliError::input(anyhow!("{}: {e}", p.display())))?;
+        let at = asset.asset();
+        if at.kind().as_str() != "MRTL" {
+            return Err(CliError::input(anyhow!(
+                "{}: a {} asset, not an MRT level (MRTL)",
+                p.display(),
+                at.kind().as_str()
+            )));
+        }
+        let meta: Value = serde_json::from_str(at.meta_json()).map_err(CliError::internal)?;
+        if meta["dictionary"]["crc32c"].as_str() != Some(format!("{:08x}", ops.crc32c).as_str()) {
+            return Err(CliError::input(anyhow!(
+                "{} was baked with another dictionary (CRC-32C {}), not {} ({:08x})",
+                p.display(),
+                meta["dictionary"]["crc32c"],
+                a.dict.display(),
+                ops.crc32c
+            )));
+        }
+        let lf: penumbra_config::LevelFile = serde_json::from_value(meta["level"].clone())
+            .map_err(|e| CliError::input(anyhow!("{}: meta.level: {e}", p.display())))?;
+        let (level, links) = validated(&lf, p, &ops)?;
+        let depth = meta["params"]["max_depth"].as_u64().unwrap_or(8) as usize;
+        level_asset = Some((bytes, depth));
+        (level, links, p.display().to_string())
+    } else {
+        resolve(a.level.as_deref(), &a.source, &ops)?
+    };
+    if let Some(p) = &a.clutter {
+        let (s, d) = clutter_from_file(p, specs.len())?;
+        specs.extend(s);
+        desc.extend(d);
+    }
+    let clutter = ClutterScene::with_basis(&specs, a.clutter_res as usize, a.clutter_basis_res as usize)
+        .map_err(|e| CliError::input(anyhow!("clutter: {e}")))?;
+    Ok(DrtScene { ops, dict, level, links, what, level_asset, clutter, clutter_json: desc, example_lights })
+}
+
+impl DrtScene {
+    /// The inputs the asset records.
+    pub fn inputs(&self) -> DrtInputs {
+        let level = serde_json::to_value(to_file(&self.level, &self.ops.names)).unwrap_or(Value::Null);
+        DrtInputs {
+            dict_crc32c: self.ops.crc32c,
+            level_crc32c: self.level_asset.as_ref().map(|(b, _)| penumbra_asset::crc32c(b)),
+            level,
+            clutter_hashes: self
+                .clutter_json
+                .iter()
+                .map(|d| blake3::hash(d.to_string().as_bytes()).to_hex().to_string())
+                .collect(),
+            clutter: Value::Array(self.clutter_json.clone()),
+        }
+    }
+}
+
+/// Bake options shared by `drt` and `verify drt`.
+#[derive(Debug, Args)]
+pub struct DrtBakeArgs {
+    /// Rays per texel (thesis: 1024).
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
+    pub rays: u32,
+    /// Receiving blocks: within D connection hops of a block with clutter (docs/drt.md measures D).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
+    pub neighborhood: u32,
+    /// Rank of the clutter gather C_b (thesis: 5 modes).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub kc: u32,
+    /// Rank of the delta reflection ΔU_c (thesis: 32 modes).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub kdc: u32,
+    /// Leave out C_c, the clutter-to-clutter gather (the thesis has none; docs/drt.md).
+    #[arg(long)]
+    pub no_clutter_to_clutter: bool,
+    /// How C_b is reduced: svd (best rank-kc), first (the first kc modes of each block's b), full.
+    #[arg(long, default_value = "svd", value_parser = ["svd", "first", "full"])]
+    pub kc_mode: String,
+    /// Do not inpaint scene texels inside clutter.
+    #[arg(long)]
+    pub no_inpaint: bool,
+    /// Seed of the bake's rays.
+    #[arg(long, default_value_t = 0)]
+    pub ray_seed: u64,
+}
+
+impl DrtBakeArgs {
+    /// The bake parameters.
+    pub fn params(&self, clutter_res: u32, clutter_basis_res: u32) -> DrtParams {
+        DrtParams {
+            rays: self.rays as usize,
+            neighborhood: self.neighborhood as usize,
+            k_c: self.kc as usize,
+            k_dc: self.kdc as usize,
+            clutter_to_clutter: !self.no_clutter_to_clutter,
+            kc_mode: KcMode::parse(&self.kc_mode).unwrap_or(KcMode::Svd),
+            inpaint: !self.no_inpaint,
+            clutter_res: clutter_res as usize,
+            clutter_basis_res: clutter_basis_res as usize,
+            seed: self.ray_seed,
+        }
+    }
+}
+
+/// `penumbra drt`.
+#[derive(Debug, Args)]
+pub struct DrtArgs {
+    /// The scene.
+    #[command(flatten)]
+    pub scene: DrtSceneArgs,
+    /// Bake options.
+    #[command(flatten)]
+    pub bake: DrtBakeArgs,
+    /// Output asset (.drto).
+    #[arg(short = 'o', long)]
+    pub output: PathBuf,
+    /// One JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Bakes the scene's operators; returns the bake and the asset bytes.
+pub fn bake_scene(
+    sc: &DrtScene,
+    params: &DrtParams,
+    mode: ProgressMode,
+) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>), CliError> {
+    let rep = Reporter::new("drt", mode);
+    let b =
+        bake(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, &rep).map_err(|e| CliError::input(anyhow!("{e}")))?;
+    rep.finish();
+    let inputs = sc.inputs();
+    let key = blake3::hash(
+        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "drt", "dict": sc.ops.crc32c, "level": inputs.level,
+               "clutter": inputs.clutter_hashes, "params": params.to_json()})
+        .to_string()
+        .as_bytes(),
+    )
+    .to_hex()
+    .to_string();
+    let asset = to_asset(&b, &sc.clutter, &inputs, Some(&key)).map_err(CliError::internal)?;
+    let bytes = asset.to_bytes().map_err(CliError::internal)?;
+    Ok((b, bytes))
+}
+
+/// Runs `penumbra drt`.
+#[allow(clippy::print_stderr)]
+pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let sc = load_scene(&a.scene)?;
+    let params = a.bake.params(a.scene.clutter_res, a.scene.clutter_basis_res);
+    let t0 = Instant::now();
+    let (b, bytes) = bake_scene(&sc, &params, mode)?;
+    let bake_seconds = t0.elapsed().as_secs_f64();
+    ensure_parent(&a.output)?;
+    penumbra_asset::write_file_atomic(&a.output, &bytes)
+        .with_context(|| format!("cannot write {}", a.output.display()))?;
+    let mut v = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+    if let Some(o) = v.as_object_mut() {
+        o.insert("level".into(), json!(sc.what));
+        o.insert("level_blocks".into(), json!(sc.level.blocks.len()));
+        o.insert("kc_mode".into(), json!(params.kc_mode.name()));
+        o.insert("bytes".into(), json!(bytes.len()));
+        o.insert("bake_seconds".into(), json!(bake_seconds));
+        o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
+        o.insert("output".into(), json!(a.output.display().to_string()));
+    }
+    if a.json {
+        print_json(&v);
+    } else {
+        let m = &b.metrics;
+        eprintln!(
+            "{}: {} receiving blocks, {} clutter instances ({} texels, {} charts), {} rays per texel\n  inpainted {} texels ({} failures), {} ΔU_b records, C_b rank {}\n  wrote {} ({} bytes) in {:.2} s",
+            sc.what,
+            m.blocks,
+            m.clutter_instances,
+            m.clutter_texels,
+            m.clutter_charts,
+            m.rays,
+            m.inpainted_texels,
+            m.inpaint_failures,
+            m.delta_occlusion_records,
+            m.k_c,
+            a.output.display(),
+            bytes.len(),
+            start.elapsed().as_secs_f64()
+        );
+    }
+    Ok(ExitCode::Ok)
+}

@@ -1,0 +1,528 @@
+//! `penumbra verify drt`: MRT and MRT + DRT on a level with clutter against a path tracer
+//! that sees the clutter (MRT thesis ch. 5).
+
+use crate::commands::drt::{DrtBakeArgs, DrtScene, DrtSceneArgs, bake_scene, load_scene};
+use crate::commands::mrt_level::bake as bake_level;
+use crate::commands::print_json;
+use crate::exit::{CliError, ExitCode};
+use crate::fsutil::ensure_parent;
+use crate::progress::{ProgressMode, Reporter};
+use anyhow::{Context, anyhow};
+use clap::Args;
+use penumbra_asset::{AssetFile, OwnedAsset};
+use penumbra_math::progress::Progress;
+use penumbra_runtime::drt::{DrtOperators, DrtRuntime, Paths};
+use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+use penumbra_transport::drt::{DrtParams, KcMode, Scene};
+use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
+use penumbra_transport::gather::{DirectionSet, sh9};
+use penumbra_transport::level::rotate_y;
+use penumbra_transport::level_reference::{LevelGeometry, PointLight, level_texels};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// `penumbra verify drt`.
+#[derive(Debug, Args)]
+pub struct VerifyDrtArgs {
+    /// The scene (the same arguments the asset was baked with).
+    #[command(flatten)]
+    pub scene: DrtSceneArgs,
+    /// A baked DRTO asset (checked against the scene); without it the operators are baked here.
+    #[arg(long, value_name = "ASSET")]
+    pub drt: Option<PathBuf>,
+    /// Bake options (when no --drt is given).
+    #[command(flatten)]
+    pub bake: DrtBakeArgs,
+    /// Point lights (TOML `[[light]] position = [x, y, z]`, `intensity`). Default: the
+    /// example's, else one light at the centre of block 0 and of every 8th block after it.
+    #[arg(long)]
+    pub lights: Option<PathBuf>,
+    /// Wall albedo of the comparison (the runtime scales the dictionary's baked albedo).
+    #[arg(long, default_value_t = 0.5, value_parser = parse_albedo)]
+    pub albedo: f64,
+    /// Clutter albedo channel compared (0 = r, 1 = g, 2 = b).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=2))]
+    pub channel: u32,
+    /// Reference rays per receiver.
+    #[arg(long = "reference-rays", default_value_t = 512, value_parser = clap::value_parser!(u32).range(4..=1_048_576))]
+    pub reference_rays: u32,
+    /// Bounces of the multi-bounce comparison.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub bounces: u32,
+    /// Depth limit of the level operators (when the level is not a baked asset).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub max_depth: u32,
+    /// Seed of the reference.
+    #[arg(long = "ref-seed", default_value_t = 0)]
+    pub ref_seed: u64,
+    /// Top view of the floors' one-bounce indirect light: MRT | MRT + DRT | reference (PNG).
+    #[arg(long, value_name = "OUT.png")]
+    pub image: Option<PathBuf>,
+    /// Exit with code 1 when rel_error_mrt_drt exceeds this.
+    #[arg(long, value_name = "X")]
+    pub max_rel_error: Option<f64>,
+    /// One JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_albedo(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v > 0.0 && v < 1.0 { Ok(v) } else { Err(format!("{v} is out of range (allowed: 0 < A < 1)")) }
+}
+
+/// `‖a − b‖ / ‖b‖` over the entries `keep` selects.
+fn rel(a: &[f64], b: &[f64], keep: &[bool]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for ((x, y), &k) in a.iter().zip(b).zip(keep) {
+        if k {
+            num += (x - y) * (x - y);
+            den += y * y;
+        }
+    }
+    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+}
+
+fn norm_ratio(a: &[f64], b: &[f64], keep: &[bool]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for ((x, y), &k) in a.iter().zip(b).zip(keep) {
+        if k {
+            num += x * x;
+            den += y * y;
+        }
+    }
+    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+}
+
+fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
+    let mut t: Vec<f64> = (0..reps)
+        .map(|_| {
+            let s = Instant::now();
+            f();
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+fn lights(a: &VerifyDrtArgs, sc: &DrtScene, geo: &LevelGeometry<'_>) -> Result<Vec<PointLight>, CliError> {
+    if let Some(p) = &a.lights {
+        let f = penumbra_config::level::load_lights(p)?;
+        if f.lights.is_empty() {
+            return Err(CliError::input(anyhow!("{}: no [[light]]", p.display())));
+        }
+        let mut v = Vec::new();
+        for (i, l) in f.lights.iter().enumerate() {
+            let intensity = l.intensity.unwrap_or(1.0);
+            if !(intensity.is_finite() && intensity > 0.0) || geo.block_of(l.position).is_none() {
+                return Err(CliError::input(anyhow!(
+                    "{}: light {i} at {:?} must have a positive intensity and lie inside a block",
+                    p.display(),
+                    l.position
+                )));
+            }
+            v.push(PointLight { position: l.position, intensity });
+        }
+        return Ok(v);
+    }
+    if let Some(l) = &sc.example_lights {
+        return Ok(l.clone());
+    }
+    Ok((0..sc.level.blocks.len())
+        .step_by(8)
+        .map(|b| PointLight { position: sc.level.blocks[b].to_world([0.5; 3]), intensity: 1.0 })
+        .collect())
+}
+
+/// Parameters recorded in a DRTO's meta.
+fn params_of(meta: &Value) -> DrtParams {
+    let p = &meta["params"];
+    let u = |k: &str, d: usize| p[k].as_u64().map_or(d, |v| v as usize);
+    DrtParams {
+        rays: u("rays", 1024),
+        neighborhood: u("neighborhood", 1),
+        k_c: u("k_c", 5),
+        k_dc: u("k_dc", 32),
+        clutter_to_clutter: p["clutter_to_clutter"].as_bool().unwrap_or(true),
+        kc_mode: p["kc_mode"].as_str().and_then(KcMode::parse).unwrap_or(KcMode::Svd),
+        inpaint: p["inpaint"].as_bool().unwrap_or(true),
+        clutter_res: u("clutter_res", 16),
+        clutter_basis_res: u("clutter_basis_res", 1),
+        seed: p["seed"].as_u64().unwrap_or(0),
+    }
+}
+
+/// MRT's volume-probe irradiance (U_bvol, §3.5.5) at clutter texels, from each block's `b`.
+fn probe_irradiance(
+    dict_asset: &penumbra_asset::Asset<'_>,
+    sc: &DrtScene,
+    b: &[f32],
+    kb_stride: usize,
+    recv: &[Receiver],
+) -> Result<Vec<f64>, CliError> {
+    const AHAT: [f64; 9] = [
+        core::f64::consts::PI,
+        2.0 * core::f64::consts::PI / 3.0,
+        2.0 * core::f64::consts::PI / 3.0,
+        2.0 * core::f64::consts::PI / 3.0,
+        core::f64::consts::FRAC_PI_4,
+        core::f64::consts::FRAC_PI_4,
+        core::f64::consts::FRAC_PI_4,
+        core::f64::consts::FRAC_PI_4,
+        core::f64::consts::FRAC_PI_4,
+    ];
+    let mut out = Vec::with_capacity(recv.len());
+    for r in recv {
+        let blk = &sc.level.blocks[r.block];
+        let name = &sc.ops.names[blk.shape];
+        let sec = dict_asset
+            .section(&format!("{name}.u_bvol"))
+            .ok_or_else(|| CliError::input(anyhow!("the dictionary has no {name}.u_bvol")))?;
+        let d = sec.dims().to_vec();
+        let vol = sec.as_f32().map_err(CliError::internal)?;
+        let (gp, kb) = (d[0], d[1]);
+        let g = (gp as f64).cbrt().round() as usize;
+        let q = blk.to_local(r.point);
+        // normal into the block frame: (R S)ᵀ n
+        let nl = rotate_y(r.normal, (4 - blk.rotation % 4) % 4);
+        let nl = [nl[0] * blk.scale[0], nl[1] * blk.scale[1], nl[2] * blk.scale[2]];
+        let ln = (nl[0] * nl[0] + nl[1] * nl[1] + nl[2] * nl[2]).sqrt().max(f64::MIN_POSITIVE);
+        let y = sh9(nl.map(|x| x / ln));
+        let bs = &b[r.block * kb_stride..r.block * kb_stride + kb];
+        let mut e = 0.0;
+        let axis = |x: f64| {
+            let s = (x * g as f64 - 0.5).clamp(0.0, (g - 1) as f64);
+            let i0 = (s as usize).min(g.saturating_sub(2));
+            let i1 = (i0 + 1).min(g - 1);
+            (i0, i1, s - i0 as f64)
+        };
+        let (x0, x1, fx) = axis(q[0]);
+        let (y0, y1, fy) = axis(q[1]);
+        let (z0, z1, fz) = axis(q[2]);
+        for (zi, wz) in [(z0, 1.0 - fz), (z1, fz)] {
+            for (yi, wy) in [(y0, 1.0 - fy), (y1, fy)] {
+                for (xi, wx) in [(x0, 1.0 - fx), (x1, fx)] {
+                    let w = wx * wy * wz;
+                    if w == 0.0 {
+                        continue;
+                    }
+                    let p = (zi * g + yi) * g + xi;
+                    for (m, &bm) in bs.iter().enumerate() {
+                        let c = &vol[(p * kb + m) * 9..(p * kb + m) * 9 + 9];
+                        let s: f64 = (0..9).map(|j| AHAT[j] * f64::from(c[j]) * y[j]).sum();
+                        e += w * s * f64::from(bm);
+                    }
+                }
+            }
+        }
+        out.push(e);
+    }
+    Ok(out)
+}
+
+/// Runs `penumbra verify drt`.
+#[allow(clippy::print_stderr)]
+pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let sc = load_scene(&a.scene)?;
+    // the operators: a baked asset (checked against the scene) or baked here
+    let (drt_bytes, params) = match &a.drt {
+        Some(p) => {
+            let bytes = std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?;
+            let asset = OwnedAsset::parse(&bytes).map_err(|e| CliError::input(anyhow!("{}: {e}", p.display())))?;
+            let at = asset.asset();
+            if at.kind().as_str() != "DRTO" {
+                return Err(CliError::input(anyhow!(
+                    "{}: a {} asset, not DRT operators (DRTO)",
+                    p.display(),
+                    at.kind().as_str()
+                )));
+            }
+            let meta: Value = serde_json::from_str(at.meta_json()).map_err(CliError::internal)?;
+            let inputs = sc.inputs();
+            let same = meta["inputs"]["dictionary_crc32c"].as_str()
+                == Some(format!("{:08x}", inputs.dict_crc32c).as_str())
+                && meta["inputs"]["level"] == inputs.level
+                && meta["inputs"]["clutter_blake3"] == json!(inputs.clutter_hashes);
+            if !same {
+                return Err(CliError::input(anyhow!(
+                    "{} was baked for another dictionary, level or clutter than the one given (compare its meta.inputs)",
+                    p.display()
+                )));
+            }
+            let params = params_of(&meta);
+            (bytes, params)
+        }
+        None => {
+            let params = a.bake.params(a.scene.clutter_res, a.scene.clutter_basis_res);
+            (bake_scene(&sc, &params, mode)?.1, params)
+        }
+    };
+    // the same operators without inpainting, for the comparison
+    let no_inpaint_bytes = bake_scene(&sc, &DrtParams { inpaint: false, ..params.clone() }, ProgressMode::None)?.1;
+    let level_bytes = match &sc.level_asset {
+        Some((b, _)) => b.clone(),
+        None => bake_level(&sc.level, &sc.links, &sc.ops, a.max_depth as usize, None)?.1,
+    };
+    let dict_file =
+        AssetFile::open(&a.scene.dict).with_context(|| format!("cannot open {}", a.scene.dict.display()))?;
+    let dict_asset = dict_file.asset();
+    let rd = MrtDictionary::from_asset(&dict_asset)
+        .map_err(|e| CliError::input(anyhow!("{}: {e}", a.scene.dict.display())))?;
+    let level_asset = OwnedAsset::parse(&level_bytes).map_err(CliError::internal)?;
+    let la = level_asset.asset();
+    let rl = MrtLevel::from_asset(&la, &rd).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+    let drt_asset = OwnedAsset::parse(&drt_bytes).map_err(CliError::internal)?;
+    let da = drt_asset.asset();
+    let ops = DrtOperators::from_asset(&da, &rd, &rl).map_err(|e| CliError::input(anyhow!("DRT operators: {e}")))?;
+    let ni_asset = OwnedAsset::parse(&no_inpaint_bytes).map_err(CliError::internal)?;
+    let nia = ni_asset.asset();
+    let ops_ni = DrtOperators::from_asset(&nia, &rd, &rl).map_err(CliError::internal)?;
+    let mut mrt = MrtRuntime::new(rd, rl);
+    let mut drt = DrtRuntime::new(ops, &mrt);
+    let mut drt_ni = DrtRuntime::new(ops_ni, &mrt);
+
+    let geo = LevelGeometry { level: &sc.level, links: &sc.links, missing: &sc.ops.missing };
+    let scene = Scene::new(geo.clone(), &sc.clutter, &sc.dict);
+    let lights = lights(a, &sc, &geo)?;
+    let tex = level_texels(&sc.level, &sc.ops.missing, sc.ops.face_res);
+    let n = tex.texels.len();
+    if n != mrt.texel_count() {
+        return Err(CliError::internal(anyhow!("texel count {n} vs runtime {}", mrt.texel_count())));
+    }
+    // receivers: every scene texel, then every clutter texel (its block probed off the surface)
+    let mut recv: Vec<Receiver> =
+        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn }).collect();
+    let mut clutter_ok = Vec::new();
+    for t in &sc.clutter.texels {
+        let o = [
+            t.position[0] + 1e-7 * t.normal[0],
+            t.position[1] + 1e-7 * t.normal[1],
+            t.position[2] + 1e-7 * t.normal[2],
+        ];
+        let b = geo.block_of(o);
+        clutter_ok.push(b.is_some());
+        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal });
+    }
+    let m = sc.clutter.texels.len();
+    let l_d: Vec<f32> = recv[..n].iter().map(|r| direct(&scene, r.block, r.point, r.normal, &lights) as f32).collect();
+    let l_dc: Vec<f32> = recv[n..]
+        .iter()
+        .zip(&clutter_ok)
+        .map(|(r, &ok)| if ok { direct(&scene, r.block, r.point, r.normal, &lights) as f32 } else { 0.0 })
+        .collect();
+    let scale = (a.albedo / sc.ops.albedo) as f32;
+    let ch = a.channel as usize;
+    // runtime: MRT alone, MRT + DRT (with and without inpainting), occlusion only, multi-bounce
+    let mut mrt_one = vec![0.0f32; n];
+    mrt.indirect(&l_d, &mut mrt_one, true);
+    let mrt_one: Vec<f64> = mrt_one.iter().map(|&x| f64::from(x) * f64::from(scale)).collect();
+    let b_one: Vec<f32> = mrt.coefficients().to_vec();
+    let kb = mrt.level().k_b;
+    let mut mrt_multi = vec![0.0f32; n];
+    mrt.multi_bounce(&l_d, &mut mrt_multi, a.bounces as usize, scale);
+    let (mut s_drt, mut c_drt) = (vec![0.0f32; n], vec![0.0f32; m]);
+    drt.one_bounce(&mut mrt, &l_d, &l_dc, ch, scale, Paths::ALL, &mut s_drt, &mut c_drt);
+    let (mut s_occ, mut c_occ) = (vec![0.0f32; n], vec![0.0f32; m]);
+    drt.one_bounce(
+        &mut mrt,
+        &l_d,
+        &l_dc,
+        ch,
+        scale,
+        Paths { occlusion: true, reflection: false },
+        &mut s_occ,
+        &mut c_occ,
+    );
+    let (mut s_ni, mut c_ni) = (vec![0.0f32; n], vec![0.0f32; m]);
+    drt_ni.one_bounce(&mut mrt, &l_d, &l_dc, ch, scale, Paths::ALL, &mut s_ni, &mut c_ni);
+    let (mut s_multi, mut c_multi) = (vec![0.0f32; n], vec![0.0f32; m]);
+    drt.multi_bounce(&mut mrt, &l_d, &l_dc, ch, scale, a.bounces as usize, &mut s_multi, &mut c_multi);
+    let ms_runtime =
+        median_ms(21, || drt.one_bounce(&mut mrt, &l_d, &l_dc, ch, scale, Paths::ALL, &mut s_drt, &mut c_drt));
+    let mut scratch = vec![0.0f32; n];
+    let ms_mrt = median_ms(21, || mrt.indirect(&l_d, &mut scratch, true));
+    let to64 = |v: &[f32]| -> Vec<f64> { v.iter().map(|&x| f64::from(x)).collect() };
+    let (s_drt, c_drt, s_occ, s_ni, s_multi) = (to64(&s_drt), to64(&c_drt), to64(&s_occ), to64(&s_ni), to64(&s_multi));
+    let mrt_multi: Vec<f64> = mrt_multi.iter().map(|&x| f64::from(x)).collect();
+    let probes = probe_irradiance(&dict_asset, &sc, &b_one, kb, &recv[n..])?
+        .into_iter()
+        .map(|e| e * f64::from(scale))
+        .collect::<Vec<_>>();
+
+    // the reference
+    let rep = Reporter::new("verify drt", mode);
+    let done = AtomicU64::new(0);
+    let total = recv.len() as u64;
+    let t_ref = Instant::now();
+    let alb = Albedo { walls: a.albedo, channel: ch };
+    let r = reference(&scene, &recv, &lights, alb, a.reference_rays as usize, a.bounces as usize, a.ref_seed, &|k| {
+        let v = done.fetch_add(k, Ordering::Relaxed) + k;
+        rep.update("reference", v.min(total), total);
+    });
+    rep.finish();
+    let reference_seconds = t_ref.elapsed().as_secs_f64();
+
+    // scene texels inside clutter are not seen: left out (and counted)
+    let mut keep = vec![true; n];
+    let ops = drt.operators();
+    for rc in ops.receivers.chunks_exact(3) {
+        let (b, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
+        for t in 0..cnt {
+            if ops.inpaint_mask[off + t] != 0 {
+                keep[tex.offsets[b] + t] = false;
+            }
+        }
+    }
+    let inside = keep.iter().filter(|&&k| !k).count();
+    let (r1, rm) = (&r.one_bounce[..n], &r.multi_bounce[..n]);
+    let (rc1, rcm) = (&r.one_bounce[n..], &r.multi_bounce[n..]);
+    let per_block: Vec<Value> = (0..sc.level.blocks.len())
+        .map(|b| {
+            let rg = tex.offsets[b]..tex.offsets[b + 1];
+            let k = &keep[rg.clone()];
+            json!({
+                "block": b,
+                "shape": sc.ops.names[sc.level.blocks[b].shape],
+                "rel_error_mrt": rel(&mrt_one[rg.clone()], &r1[rg.clone()], k),
+                "rel_error_mrt_drt": rel(&s_drt[rg.clone()], &r1[rg.clone()], k),
+                "reference_noise": norm_ratio(&r.one_half_difference[rg.clone()], &r1[rg], k),
+            })
+        })
+        .collect();
+    let cm = &clutter_ok;
+    let v = json!({
+        "scene": sc.what,
+        "blocks": sc.level.blocks.len(),
+        "texels": n,
+        "texels_inside_clutter": inside,
+        "clutter_instances": sc.clutter.len(),
+        "clutter_texels": m,
+        "lights": lights.len(),
+        "albedo": a.albedo,
+        "channel": ch,
+        "bounces": a.bounces,
+        "reference_rays": a.reference_rays,
+        "drt_params": params.to_json(),
+        "rel_error_mrt": rel(&mrt_one, r1, &keep),
+        "rel_error_mrt_drt": rel(&s_drt, r1, &keep),
+        "rel_error_mrt_drt_occlusion_only": rel(&s_occ, r1, &keep),
+        "rel_error_mrt_drt_without_inpainting": rel(&s_ni, r1, &keep),
+        "rel_error_mrt_multi_bounce": rel(&mrt_multi, rm, &keep),
+        "rel_error_mrt_drt_multi_bounce": rel(&s_multi, rm, &keep),
+        "rel_error_clutter_cb": rel(&c_drt, rc1, cm),
+        "rel_error_clutter_probes": rel(&probes, rc1, cm),
+        "rel_error_clutter_cb_multi_bounce": rel(&to64(&c_multi), rcm, cm),
+        "reference_noise": norm_ratio(&r.one_half_difference[..n], r1, &keep),
+        "reference_noise_multi_bounce": norm_ratio(&r.multi_half_difference[..n], rm, &keep),
+        "reference_noise_clutter": norm_ratio(&r.one_half_difference[n..], rc1, cm),
+        "ms_runtime": ms_runtime,
+        "ms_runtime_mrt": ms_mrt,
+        "per_block": per_block,
+        "reference_seconds": reference_seconds,
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    if let Some(p) = &a.image {
+        let png = top_view(&tex, &[&mrt_one, &s_drt, r1], &keep, sc.ops.face_res);
+        ensure_parent(p)?;
+        penumbra_asset::write_file_atomic(p, &png).with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    if a.json {
+        print_json(&v);
+    } else {
+        eprintln!(
+            "{}: {} blocks, {n} texels ({inside} inside clutter), {} clutter instances ({m} texels), {} lights\n  one bounce: MRT {:.4}, MRT + DRT {:.4} (occlusion only {:.4}, without inpainting {:.4}; reference noise {:.4})\n  {} bounces: MRT {:.4}, MRT + DRT {:.4}\n  clutter: C_b {:.4}, MRT probes {:.4}\n  runtime {:.3} ms MRT + DRT ({:.3} ms MRT alone, one thread)",
+            sc.what,
+            sc.level.blocks.len(),
+            sc.clutter.len(),
+            lights.len(),
+            f("rel_error_mrt"),
+            f("rel_error_mrt_drt"),
+            f("rel_error_mrt_drt_occlusion_only"),
+            f("rel_error_mrt_drt_without_inpainting"),
+            f("reference_noise"),
+            a.bounces,
+            f("rel_error_mrt_multi_bounce"),
+            f("rel_error_mrt_drt_multi_bounce"),
+            f("rel_error_clutter_cb"),
+            f("rel_error_clutter_probes"),
+            ms_runtime,
+            ms_mrt
+        );
+    }
+    if let Some(x) = a.max_rel_error {
+        if f("rel_error_mrt_drt") > x {
+            eprintln!("quality gate failed: rel_error_mrt_drt {:.4} > --max-rel-error {x}", f("rel_error_mrt_drt"));
+            return Ok(ExitCode::QualityGate);
+        }
+    }
+    let _ = DirectionSet::cosine(1);
+    Ok(ExitCode::Ok)
+}
+
+/// Top view of the floors, one panel per series (same tone scale), texels inside clutter
+/// drawn dark red.
+fn top_view(
+    tex: &penumbra_transport::level_reference::LevelTexels,
+    series: &[&[f64]],
+    keep: &[bool],
+    r: usize,
+) -> Vec<u8> {
+    let floor: Vec<usize> = (0..tex.texels.len()).filter(|&i| tex.texels[i].1 == 2).collect();
+    let (mut x0, mut x1, mut z0, mut z1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &i in &floor {
+        let p = tex.texels[i].2;
+        x0 = x0.min(p[0]);
+        x1 = x1.max(p[0]);
+        z0 = z0.min(p[2]);
+        z1 = z1.max(p[2]);
+    }
+    // texel pitch in world units (blocks may be scaled uniformly)
+    let pitch = floor
+        .iter()
+        .filter_map(|&i| {
+            let p = tex.texels[i].2;
+            floor.iter().map(|&j| (tex.texels[j].2[0] - p[0]).abs()).filter(|&d| d > 1e-9).reduce(f64::min)
+        })
+        .fold(f64::MAX, f64::min)
+        .min(1.0 / r as f64);
+    let s = 1.0 / pitch.max(1e-9);
+    let up = (512 / (((x1 - x0) * s).round() as usize + 1)).clamp(2, 16);
+    let w = (((x1 - x0) * s).round() as usize + 1) * up;
+    let h = (((z1 - z0) * s).round() as usize + 1) * up;
+    let gap = 8;
+    let width = series.len() * w + (series.len() - 1) * gap;
+    let peak = floor
+        .iter()
+        .filter(|&&i| keep[i])
+        .map(|&i| series.iter().map(|v| v[i]).fold(0.0f64, f64::max))
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut img = vec![32u8; width * h * 3];
+    for &i in &floor {
+        let p = tex.texels[i].2;
+        let (px, pz) = (((p[0] - x0) * s).round() as usize, ((p[2] - z0) * s).round() as usize);
+        for (k, v) in series.iter().enumerate() {
+            let side = k * (w + gap);
+            let rgb = if keep[i] {
+                let g = ((v[i].max(0.0) / peak).powf(1.0 / 2.2) * 255.0).round().clamp(0.0, 255.0) as u8;
+                [g, g, (f64::from(g) * 0.9) as u8]
+            } else {
+                [90, 20, 20]
+            };
+            for dz in 0..up {
+                for dx in 0..up {
+                    let o = ((pz * up + dz) * width + side + px * up + dx) * 3;
+                    if o + 3 <= img.len() {
+                        img[o..o + 3].copy_from_slice(&rgb);
+                    }
+                }
+            }
+        }
+    }
+    crate::png::encode_rgb8(width as u32, h as u32, &img)
+}

@@ -1,0 +1,676 @@
+//! DRT clutter (MRT thesis ch. 5): objects placed inside a level's blocks, their texels, the
+//! constant-per-chart radiance basis (§5.3.2) and ray queries against them.
+//!
+//! # Placement
+//! A clutter instance is a box or a triangle mesh in its own frame, placed in the world by
+//! `x ↦ T + R(s·x)`: uniform scale `s`, rotation `R` (a unit quaternion `[x, y, z, w]`, or a
+//! turn about +Y), translation `T` (world units, the level's frame). A box of size
+//! `(sx, sy, sz)` spans `[−sx/2, sx/2] × [0, sy] × [−sz/2, sz/2]` in its frame: it stands on its
+//! origin, so `translate` is the centre of its footprint. `faces = "no-bottom"` leaves out the
+//! `−y` face (the thesis's five-faced pillars, which stand on the floor).
+//!
+//! # Texels and charts
+//! Radiance on clutter is represented per texel (the direct light an engine computes, and the
+//! indirect light `C_b b` DRT returns). Texels are grouped in **charts**; the clutter basis has
+//! one function per chart, constant over it and orthonormal over the texels: `B[t, j] =
+//! 1/√m_j` on the `m_j` texels of chart `j` (§5.3.2: "constant radiance over each clutter mesh
+//! face"), so `T_d→c = Bᵀ` and `c_j = Σ_{t∈j} l_t/√m_j`.
+//! - Boxes: one chart per face, `res × res` texels on it (§5.4.4: 16²), faces in the order
+//!   −x, +x, −y, +y, −z, +z, each row-major (`j` then `i`) with outward normal `u × v`:
+//!   −x: u = +z, v = +y; +x: u = −z, v = +y; −y: u = +x, v = +z; +y: u = +z, v = +x;
+//!   −z: u = −x, v = +y; +z: u = +x, v = +y (the corner where `(i, j) = (0, 0)` starts is the
+//!   one the two axes start from). Texel `(i, j)` is centred at `(i+½)/res, (j+½)/res`.
+//! - Meshes: an automatic box-projection parameterisation (documented in docs/drt.md): every
+//!   triangle joins the chart of the axis its normal is closest to (±x, ±y, ±z); a chart is
+//!   rasterised in its axis plane on a square grid of spacing `h = (largest extent)/res`; each
+//!   grid-cell centre covered by a triangle of the chart is a texel at the point of that
+//!   triangle above it (several surfaces above one cell give one texel each, in depth order:
+//!   the texel's `layer`). glTF `TEXCOORD_1` is not read yet (the mesh model carries no UVs).
+//!
+//! # Rays
+//! All instances' triangles, placed in the world, go into one BVH (`geometry`'s exact,
+//! watertight f64 ray queries). A hit reports the chart of the triangle and whether the ray
+//! met its front (outward) side; a back-side hit only happens from inside an object (or
+//! through the open bottom of a five-faced box) and carries no light.
+
+use crate::TransportError;
+use penumbra_geometry::{MeshBvh, Ray, TriMesh};
+
+/// Box faces of a clutter box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoxFaces {
+    /// All six faces.
+    All,
+    /// Five faces: no `−y` (bottom) face.
+    NoBottom,
+}
+
+/// The geometry of one clutter instance, in its own frame.
+#[derive(Debug, Clone)]
+pub enum ClutterShape {
+    /// A box standing on its origin (module docs).
+    Box {
+        /// Size along x, y, z.
+        size: [f64; 3],
+        /// Which faces.
+        faces: BoxFaces,
+    },
+    /// A triangle mesh (outward winding), in its own frame.
+    Mesh(TriMesh),
+}
+
+/// One clutter instance as given by the user.
+#[derive(Debug, Clone)]
+pub struct ClutterSpec {
+    /// A name for messages and reports.
+    pub name: String,
+    /// Geometry.
+    pub shape: ClutterShape,
+    /// World translation.
+    pub translate: [f64; 3],
+    /// Rotation, unit quaternion `[x, y, z, w]`.
+    pub rotate: [f64; 4],
+    /// Uniform scale (> 0).
+    pub scale: f64,
+    /// Diffuse albedo per channel, `[0, 1)`.
+    pub albedo: [f64; 3],
+}
+
+/// A quaternion `[x, y, z, w]` for a turn of `deg` degrees about +Y.
+pub fn quat_y(deg: f64) -> [f64; 4] {
+    let h = 0.5 * deg.to_radians();
+    [0.0, h.sin(), 0.0, h.cos()]
+}
+
+/// `q` applied to `v` (`q` unit).
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let [x, y, z, w] = q;
+    // t = 2 (q.xyz × v); v' = v + w t + q.xyz × t
+    let t = [2.0 * (y * v[2] - z * v[1]), 2.0 * (z * v[0] - x * v[2]), 2.0 * (x * v[1] - y * v[0])];
+    [
+        v[0] + w * t[0] + (y * t[2] - z * t[1]),
+        v[1] + w * t[1] + (z * t[0] - x * t[2]),
+        v[2] + w * t[2] + (x * t[1] - y * t[0]),
+    ]
+}
+
+impl ClutterSpec {
+    /// World point of a point of the instance's frame.
+    pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
+        let r = rotate(self.rotate, [p[0] * self.scale, p[1] * self.scale, p[2] * self.scale]);
+        [r[0] + self.translate[0], r[1] + self.translate[1], r[2] + self.translate[2]]
+    }
+
+    /// World direction of a direction of the instance's frame (rotation only).
+    pub fn dir_to_world(&self, d: [f64; 3]) -> [f64; 3] {
+        rotate(self.rotate, d)
+    }
+
+    fn validate(&self, index: usize) -> Result<[f64; 4], TransportError> {
+        let bad = |m: String| Err(TransportError::Param(format!("clutter {index} ({}): {m}", self.name)));
+        if !self.translate.iter().all(|x| x.is_finite()) {
+            return bad(format!("translate {:?} is not finite", self.translate));
+        }
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            return bad(format!("scale {} is out of range (allowed: > 0)", self.scale));
+        }
+        let n2: f64 = self.rotate.iter().map(|x| x * x).sum();
+        if !(n2.is_finite() && (n2.sqrt() - 1.0).abs() < 1e-3) {
+            return bad(format!("rotate {:?} is not a unit quaternion [x, y, z, w]", self.rotate));
+        }
+        if !self.albedo.iter().all(|a| (0.0..1.0).contains(a)) {
+            return bad(format!("albedo {:?} is out of range (allowed: 0 <= a < 1 per channel)", self.albedo));
+        }
+        match &self.shape {
+            ClutterShape::Box { size, .. } => {
+                if !size.iter().all(|s| s.is_finite() && *s > 0.0) {
+                    return bad(format!("box size {size:?} must be positive"));
+                }
+            }
+            ClutterShape::Mesh(m) => {
+                m.validate().map_err(|e| TransportError::Param(format!("clutter {index} ({}): {e}", self.name)))?;
+            }
+        }
+        let n = n2.sqrt();
+        Ok(self.rotate.map(|x| x / n))
+    }
+}
+
+/// One chart: a run of texels of one instance with one basis function.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chart {
+    /// Instance.
+    pub instance: usize,
+    /// First texel (global clutter texel index).
+    pub first: usize,
+    /// Texels.
+    pub count: usize,
+    /// Albedo of the chart's surface per channel.
+    pub albedo: [f64; 3],
+}
+
+/// One clutter texel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClutterTexel {
+    /// World position (on the surface).
+    pub position: [f64; 3],
+    /// World outward unit normal.
+    pub normal: [f64; 3],
+    /// Global chart index.
+    pub chart: usize,
+    /// Atlas coordinates within the chart: `layer`, `i`, `j` (module docs).
+    pub uv: [u32; 3],
+}
+
+/// A ray hit on clutter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClutterHit {
+    /// Distance along the (unit) ray.
+    pub t: f64,
+    /// Chart of the hit triangle.
+    pub chart: usize,
+    /// The ray met the outward side.
+    pub front: bool,
+    /// The hit point.
+    pub point: [f64; 3],
+    /// Outward normal of the hit triangle (unit).
+    pub normal: [f64; 3],
+}
+
+/// Every clutter instance of a scene, placed, with texels, charts and a BVH.
+#[derive(Debug, Clone)]
+pub struct ClutterScene {
+    /// The instances as given (rotations normalised).
+    pub specs: Vec<ClutterSpec>,
+    /// Texels of all instances, instance by instance, chart by chart.
+    pub texels: Vec<ClutterTexel>,
+    /// Charts, instance by instance.
+    pub charts: Vec<Chart>,
+    /// `[first texel, count]` per instance.
+    pub instance_texels: Vec<[usize; 2]>,
+    /// World bounds `[min, max]` per instance.
+    pub bounds: Vec<[[f64; 3]; 2]>,
+    /// All triangles in the world (for the BVH and the reference).
+    pub mesh: TriMesh,
+    tri_chart: Vec<u32>,
+    tri_normal: Vec<[f64; 3]>,
+    bvh: Option<MeshBvh>,
+    /// Per instance: its own BVH and the global index of its first triangle.
+    inst_bvh: Vec<(MeshBvh, usize)>,
+}
+
+/// Whether the ray `o + t·d`, `t ∈ [t0, t1]`, meets the box `[lo, hi]` (padded by a hair so
+/// that a hit on a face is never missed by rounding).
+#[inline]
+fn slab(&[lo, hi]: &[[f64; 3]; 2], o: [f64; 3], d: [f64; 3], mut t0: f64, mut t1: f64) -> bool {
+    for k in 0..3 {
+        let pad = 1e-9 * (1.0 + lo[k].abs().max(hi[k].abs()));
+        let (l, h) = (lo[k] - pad, hi[k] + pad);
+        if d[k] == 0.0 {
+            if o[k] < l || o[k] > h {
+                return false;
+            }
+            continue;
+        }
+        let inv = 1.0 / d[k];
+        let (mut a, mut b) = ((l - o[k]) * inv, (h - o[k]) * inv);
+        if a > b {
+            core::mem::swap(&mut a, &mut b);
+        }
+        t0 = t0.max(a);
+        t1 = t1.min(b);
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// One face of a clutter box: outward normal's face index (cube order), origin corner, u and v
+/// edge vectors (their lengths are the face's size).
+fn box_face(size: [f64; 3], f: usize) -> ([f64; 3], [f64; 3], [f64; 3]) {
+    let [sx, sy, sz] = size;
+    let (hx, hz) = (0.5 * sx, 0.5 * sz);
+    match f {
+        0 => ([-hx, 0.0, -hz], [0.0, 0.0, sz], [0.0, sy, 0.0]),
+        1 => ([hx, 0.0, hz], [0.0, 0.0, -sz], [0.0, sy, 0.0]),
+        2 => ([-hx, 0.0, -hz], [sx, 0.0, 0.0], [0.0, 0.0, sz]),
+        3 => ([-hx, sy, -hz], [0.0, 0.0, sz], [sx, 0.0, 0.0]),
+        4 => ([hx, 0.0, -hz], [-sx, 0.0, 0.0], [0.0, sy, 0.0]),
+        _ => ([-hx, 0.0, hz], [sx, 0.0, 0.0], [0.0, sy, 0.0]),
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let l = dot(a, a).sqrt();
+    if l > 0.0 { a.map(|x| x / l) } else { a }
+}
+
+/// Per-instance geometry before merging: triangles (world), their local chart, texels.
+struct Built {
+    tris: Vec<[[f64; 3]; 3]>,
+    tri_chart: Vec<usize>,
+    charts: Vec<Vec<ClutterTexel>>,
+}
+
+fn build_box(spec: &ClutterSpec, size: [f64; 3], faces: BoxFaces, res: usize, sub: usize) -> Built {
+    let mut b = Built { tris: Vec::new(), tri_chart: Vec::new(), charts: Vec::new() };
+    let k = res / sub;
+    for f in 0..6 {
+        if f == 2 && faces == BoxFaces::NoBottom {
+            continue;
+        }
+        let (o, u, v) = box_face(size, f);
+        let c =
+            |a: f64, bb: f64| [o[0] + a * u[0] + bb * v[0], o[1] + a * u[1] + bb * v[1], o[2] + a * u[2] + bb * v[2]];
+        let w = |p: [f64; 3]| spec.to_world(p);
+        let n = normalize(spec.dir_to_world(normalize(cross(u, v))));
+        // `sub × sub` charts per face (1: the thesis's face constants), each a square of
+        // `k × k` texels with its own two triangles
+        for sj in 0..sub {
+            for si in 0..sub {
+                let chart = b.charts.len();
+                let (a0, a1) = (si as f64 / sub as f64, (si + 1) as f64 / sub as f64);
+                let (b0, b1) = (sj as f64 / sub as f64, (sj + 1) as f64 / sub as f64);
+                let (p00, p10, p11, p01) = (w(c(a0, b0)), w(c(a1, b0)), w(c(a1, b1)), w(c(a0, b1)));
+                b.tris.push([p00, p10, p11]);
+                b.tris.push([p00, p11, p01]);
+                b.tri_chart.extend([chart, chart]);
+                let mut texels = Vec::with_capacity(k * k);
+                for j in sj * k..(sj + 1) * k {
+                    for i in si * k..(si + 1) * k {
+                        let p = c((i as f64 + 0.5) / res as f64, (j as f64 + 0.5) / res as f64);
+                        texels.push(ClutterTexel { position: w(p), normal: n, chart: 0, uv: [0, i as u32, j as u32] });
+                    }
+                }
+                b.charts.push(texels);
+            }
+        }
+    }
+    b
+}
+
+/// A covered cell of a chart's grid: (cell, unused, depth along the axis, point, normal).
+type CellHit = (usize, usize, f64, [f64; 3], [f64; 3]);
+
+/// Box-projection texels of a mesh (module docs).
+fn build_mesh(spec: &ClutterSpec, mesh: &TriMesh, res: usize) -> Built {
+    let world: Vec<[[f64; 3]; 3]> =
+        (0..mesh.triangle_count()).map(|t| mesh.triangle(t).map(|p| spec.to_world(p))).collect();
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for t in &world {
+        for p in t {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+    }
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f64, f64::max);
+    let h = extent / res as f64;
+    let mut axis_of = Vec::with_capacity(world.len());
+    for t in &world {
+        let n = cross(sub(t[1], t[0]), sub(t[2], t[0]));
+        let a = (0..3).max_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs())).unwrap_or(0);
+        // zero-area triangles have no chart (they carry no light and are skipped by the BVH)
+        let f = if dot(n, n) > 0.0 { Some(2 * a + usize::from(n[a] > 0.0)) } else { None };
+        axis_of.push(f);
+    }
+    let mut b = Built { tris: Vec::new(), tri_chart: Vec::new(), charts: Vec::new() };
+    let mut chart_of_face = [usize::MAX; 6];
+    for f in 0..6 {
+        let (a, _) = (f / 2, f % 2);
+        let (p, q) = ((a + 1) % 3, (a + 2) % 3);
+        let members: Vec<usize> = (0..world.len()).filter(|&t| axis_of[t] == Some(f)).collect();
+        if members.is_empty() {
+            continue;
+        }
+        let (np, nq) = (((hi[p] - lo[p]) / h).ceil().max(1.0) as usize, ((hi[q] - lo[q]) / h).ceil().max(1.0) as usize);
+        // (cell, depth, position, normal) of every covered cell centre
+        let mut hits: Vec<CellHit> = Vec::new();
+        for &t in &members {
+            let tri = world[t];
+            let n = normalize(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0])));
+            let (mut a0, mut a1, mut b0, mut b1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+            for v in &tri {
+                a0 = a0.min(v[p]);
+                a1 = a1.max(v[p]);
+                b0 = b0.min(v[q]);
+                b1 = b1.max(v[q]);
+            }
+            let i0 = (((a0 - lo[p]) / h - 0.5).floor().max(0.0)) as usize;
+            let i1 = ((((a1 - lo[p]) / h - 0.5).ceil()) as usize).min(np - 1);
+            let j0 = (((b0 - lo[q]) / h - 0.5).floor().max(0.0)) as usize;
+            let j1 = ((((b1 - lo[q]) / h - 0.5).ceil()) as usize).min(nq - 1);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let (x, y) = (lo[p] + (i as f64 + 0.5) * h, lo[q] + (j as f64 + 0.5) * h);
+                    // 2D barycentrics in the (p, q) plane; closed edges: a centre on an edge two
+                    // triangles share is found twice and merged below (same depth)
+                    let e = |v0: [f64; 3], v1: [f64; 3]| (v1[p] - v0[p]) * (y - v0[q]) - (v1[q] - v0[q]) * (x - v0[p]);
+                    let (w0, w1, w2) = (e(tri[1], tri[2]), e(tri[2], tri[0]), e(tri[0], tri[1]));
+                    let area = w0 + w1 + w2;
+                    if area == 0.0 {
+                        continue;
+                    }
+                    let inside = |w: f64| if area > 0.0 { w >= 0.0 } else { w <= 0.0 };
+                    if !(inside(w0) && inside(w1) && inside(w2)) {
+                        continue;
+                    }
+                    let (l0, l1, l2) = (w0 / area, w1 / area, w2 / area);
+                    let pos: [f64; 3] = core::array::from_fn(|k| l0 * tri[0][k] + l1 * tri[1][k] + l2 * tri[2][k]);
+                    hits.push((j * np + i, 0, pos[a], pos, n));
+                }
+            }
+        }
+        hits.sort_by(|x, y| x.0.cmp(&y.0).then(x.2.total_cmp(&y.2)));
+        let chart = b.charts.len();
+        chart_of_face[f] = chart;
+        let mut texels: Vec<ClutterTexel> = Vec::new();
+        let mut k = 0;
+        while k < hits.len() {
+            let cell = hits[k].0;
+            let mut layer = 0u32;
+            let mut last_depth = f64::NEG_INFINITY;
+            while k < hits.len() && hits[k].0 == cell {
+                // one texel per surface: hits closer than h/2 in depth are the same surface
+                // (a centre on an edge shared by two triangles)
+                if hits[k].2 - last_depth > 0.5 * h {
+                    let (_, _, d, pos, n) = hits[k];
+                    texels.push(ClutterTexel {
+                        position: pos,
+                        normal: n,
+                        chart: 0,
+                        uv: [layer, (cell % np) as u32, (cell / np) as u32],
+                    });
+                    layer += 1;
+                    last_depth = d;
+                }
+                k += 1;
+            }
+        }
+        b.charts.push(texels);
+    }
+    for (t, tri) in world.into_iter().enumerate() {
+        if let Some(f) = axis_of[t] {
+            b.tris.push(tri);
+            b.tri_chart.push(chart_of_face[f]);
+        }
+    }
+    b
+}
+
+impl ClutterScene {
+    /// Places every instance; `res` texels per box-face edge / per mesh's largest extent.
+    pub fn new(specs: &[ClutterSpec], res: usize) -> Result<Self, TransportError> {
+        Self::with_basis(specs, res, 1)
+    }
+
+    /// [`ClutterScene::new`] with `sub × sub` charts per box face (`sub` divides `res`; 1 is
+    /// the thesis's one constant per face).
+    pub fn with_basis(specs: &[ClutterSpec], res: usize, per_face: usize) -> Result<Self, TransportError> {
+        if !(2..=64).contains(&res) {
+            return Err(TransportError::Param(format!("clutter_res {res} is out of range (allowed: 2..=64)")));
+        }
+        if per_face == 0 || res % per_face != 0 {
+            return Err(TransportError::Param(format!(
+                "clutter_basis_res {per_face} must divide clutter_res {res} (charts per box-face edge)"
+            )));
+        }
+        let mut out_specs = Vec::with_capacity(specs.len());
+        let mut texels = Vec::new();
+        let mut charts = Vec::new();
+        let mut instance_texels = Vec::new();
+        let mut bounds = Vec::new();
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        let mut tri_chart = Vec::new();
+        let mut tri_normal = Vec::new();
+        let mut inst_bvh = Vec::new();
+        for (i, s) in specs.iter().enumerate() {
+            let mut s = s.clone();
+            s.rotate = s.validate(i)?;
+            let built = match &s.shape {
+                ClutterShape::Box { size, faces } => build_box(&s, *size, *faces, res, per_face),
+                ClutterShape::Mesh(m) => build_mesh(&s, m, res),
+            };
+            let first = texels.len();
+            let chart0 = charts.len();
+            for ct in &built.charts {
+                if ct.is_empty() {
+                    continue;
+                }
+                let c = charts.len();
+                charts.push(Chart { instance: i, first: texels.len(), count: ct.len(), albedo: s.albedo });
+                texels.extend(ct.iter().map(|t| ClutterTexel { chart: c, ..*t }));
+            }
+            // local chart index → global (empty charts were skipped)
+            let mut map = Vec::with_capacity(built.charts.len());
+            let mut c = chart0;
+            for ct in &built.charts {
+                map.push(if ct.is_empty() { usize::MAX } else { c });
+                if !ct.is_empty() {
+                    c += 1;
+                }
+            }
+            if texels.len() == first {
+                return Err(TransportError::Param(format!(
+                    "clutter {i} ({}): no texels (empty or degenerate mesh)",
+                    s.name
+                )));
+            }
+            instance_texels.push([first, texels.len() - first]);
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            let tri0 = indices.len();
+            let own = TriMesh {
+                positions: built.tris.iter().flatten().copied().collect(),
+                indices: (0..built.tris.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect(),
+            };
+            let ob =
+                MeshBvh::build(&own).map_err(|e| TransportError::Param(format!("clutter {i} ({}): {e}", s.name)))?;
+            inst_bvh.push((ob, tri0));
+            for (tri, &lc) in built.tris.iter().zip(&built.tri_chart) {
+                let base = positions.len() as u32;
+                for p in tri {
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(p[k]);
+                        hi[k] = hi[k].max(p[k]);
+                    }
+                    positions.push(*p);
+                }
+                indices.push([base, base + 1, base + 2]);
+                let g = map[lc];
+                tri_chart.push(if g == usize::MAX { u32::MAX } else { g as u32 });
+                tri_normal.push(normalize(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]))));
+            }
+            bounds.push([lo, hi]);
+            out_specs.push(s);
+        }
+        let mesh = TriMesh { positions, indices };
+        let bvh = if mesh.indices.is_empty() {
+            None
+        } else {
+            Some(MeshBvh::build(&mesh).map_err(|e| TransportError::Param(format!("clutter geometry: {e}")))?)
+        };
+        Ok(Self {
+            specs: out_specs,
+            texels,
+            charts,
+            instance_texels,
+            bounds,
+            mesh,
+            tri_chart,
+            tri_normal,
+            bvh,
+            inst_bvh,
+        })
+    }
+
+    /// No clutter at all.
+    pub fn empty() -> Self {
+        let mesh = TriMesh { positions: Vec::new(), indices: Vec::new() };
+        Self {
+            specs: Vec::new(),
+            texels: Vec::new(),
+            charts: Vec::new(),
+            instance_texels: Vec::new(),
+            bounds: Vec::new(),
+            mesh,
+            tri_chart: Vec::new(),
+            tri_normal: Vec::new(),
+            bvh: None,
+            inst_bvh: Vec::new(),
+        }
+    }
+
+    /// Number of instances.
+    pub fn len(&self) -> usize {
+        self.specs.len()
+    }
+
+    /// Whether there is no clutter.
+    pub fn is_empty(&self) -> bool {
+        self.specs.is_empty()
+    }
+
+    /// The closest clutter hit along the unit ray `o + t·d`, `t ∈ (tmin, tmax)`.
+    pub fn closest(&self, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Option<ClutterHit> {
+        // few instances: their boxes first (most rays miss every object; a slab test is far
+        // cheaper than a BVH descent)
+        if self.bounds.len() <= 32 && !self.bounds.iter().any(|b| slab(b, o, d, tmin, tmax)) {
+            return None;
+        }
+        let h = self.bvh.as_ref()?.closest_hit(&Ray::new(o, d).with_range(tmin, tmax))?;
+        let tri = h.triangle as usize;
+        let n = self.tri_normal[tri];
+        let c = self.tri_chart[tri];
+        let point = [o[0] + h.t * d[0], o[1] + h.t * d[1], o[2] + h.t * d[2]];
+        Some(ClutterHit {
+            t: h.t,
+            chart: if c == u32::MAX { usize::MAX } else { c as usize },
+            front: dot(n, d) < 0.0 && c != u32::MAX,
+            point,
+            normal: n,
+        })
+    }
+
+    /// The closest hit among the instances `insts` along the unit ray `o + t·d`,
+    /// `t ∈ [tmin, tmax]` (each instance's box first, then its own BVH).
+    pub fn closest_among(&self, insts: &[usize], o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Option<ClutterHit> {
+        let mut best: Option<(f64, usize)> = None;
+        for &i in insts {
+            let hi = best.map_or(tmax, |b| b.0);
+            if !slab(&self.bounds[i], o, d, tmin, hi) {
+                continue;
+            }
+            let (bvh, tri0) = &self.inst_bvh[i];
+            if let Some(h) = bvh.closest_hit(&Ray::new(o, d).with_range(tmin, hi)) {
+                let g = tri0 + h.triangle as usize;
+                if best.is_none_or(|b| h.t < b.0 || (h.t == b.0 && g < b.1)) {
+                    best = Some((h.t, g));
+                }
+            }
+        }
+        let (t, tri) = best?;
+        let n = self.tri_normal[tri];
+        let c = self.tri_chart[tri];
+        Some(ClutterHit {
+            t,
+            chart: if c == u32::MAX { usize::MAX } else { c as usize },
+            front: dot(n, d) < 0.0 && c != u32::MAX,
+            point: [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]],
+            normal: n,
+        })
+    }
+
+    /// Whether the segment from `a` to `b` crosses clutter (strictly between the ends).
+    pub fn blocks_segment(&self, a: [f64; 3], b: [f64; 3]) -> bool {
+        let Some(bvh) = &self.bvh else { return false };
+        let eps = 1e-9;
+        bvh.any_hit(&Ray::segment(a, b).with_range(eps, 1.0 - eps))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pillar(t: [f64; 3], deg: f64) -> ClutterSpec {
+        ClutterSpec {
+            name: "pillar".into(),
+            shape: ClutterShape::Box { size: [0.2, 0.8, 0.1], faces: BoxFaces::NoBottom },
+            translate: t,
+            rotate: quat_y(deg),
+            scale: 1.0,
+            albedo: [0.5; 3],
+        }
+    }
+
+    #[test]
+    fn box_texels_lie_on_the_box_with_outward_normals() {
+        let s = ClutterScene::new(&[pillar([0.3, 0.0, 0.6], 30.0)], 4).unwrap();
+        assert_eq!(s.charts.len(), 5);
+        assert_eq!(s.texels.len(), 5 * 16);
+        let c = s.specs[0].to_world([0.0, 0.4, 0.0]);
+        for t in &s.texels {
+            // outward: from the box centre to the texel along the normal
+            assert!(dot(sub(t.position, c), t.normal) > 0.0, "{t:?}");
+            // a ray from just outside along −n hits this chart's front face
+            let o = [
+                t.position[0] + 1e-3 * t.normal[0],
+                t.position[1] + 1e-3 * t.normal[1],
+                t.position[2] + 1e-3 * t.normal[2],
+            ];
+            let h = s.closest(o, t.normal.map(|x| -x), 0.0, 1.0).unwrap();
+            assert!(h.front && h.chart == t.chart && (h.t - 1e-3).abs() < 1e-9, "{h:?}");
+        }
+        // the open bottom: from below the footprint a ray up meets the inside of the top
+        let h = s.closest([0.3, -0.1, 0.6], [0.0, 1.0, 0.0], 0.0, 10.0).unwrap();
+        assert!(!h.front && (h.t - 0.9).abs() < 1e-9);
+    }
+
+    #[test]
+    fn mesh_charts_cover_a_cube_like_a_box() {
+        // the unit cube as a mesh at res 4: six charts of 4×4 texels, like a box
+        let spec = ClutterSpec {
+            name: "cube".into(),
+            shape: ClutterShape::Mesh(penumbra_geometry::procedural::aabb_box([0.0; 3], [1.0; 3])),
+            translate: [0.0; 3],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 0.5,
+            albedo: [0.3; 3],
+        };
+        let s = ClutterScene::new(&[spec], 4).unwrap();
+        assert_eq!(s.charts.len(), 6);
+        assert!(s.charts.iter().all(|c| c.count == 16), "{:?}", s.charts);
+        for t in &s.texels {
+            let on_face = t.position.iter().any(|&x| x.abs() < 1e-12 || (x - 0.5).abs() < 1e-12);
+            assert!(on_face, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn bad_instances_are_named() {
+        let mut p = pillar([0.0; 3], 0.0);
+        p.scale = -1.0;
+        let e = ClutterScene::new(&[p], 4).unwrap_err().to_string();
+        assert!(e.contains("clutter 0") && e.contains("scale"), "{e}");
+        let mut p = pillar([0.0; 3], 0.0);
+        p.rotate = [0.0, 0.0, 0.0, 2.0];
+        assert!(ClutterScene::new(&[p], 4).unwrap_err().to_string().contains("quaternion"));
+    }
+}

@@ -1,0 +1,1316 @@
+//! Delta Radiance Transfer (MRT thesis ch. 5): the clutter operators of a level, built against
+//! the dictionary's implicit lights `L_imp` (§5.2.2.2) with rays through the level's walls
+//! and the clutter (`penumbra drt`).
+//!
+//! # Operators (per receiving block `X`; `Y` the block a ray lands in)
+//! - **Delta occlusion** `ΔU_b^{X←Y}` (§5.3.1): from each scene texel `x` of `X`, `N`
+//!   cosine-distributed rays; a ray that meets clutter before the first wall is continued to
+//!   that wall (block `Y`, point `y`) and adds `−(ρ/N)·L_imp_Y(y)` (a bilinear read of `Y`'s
+//!   `L_imp` rows at `y`, as the dictionary's gathers read texels). Then `(U_b + ΔU_b) b` is
+//!   the one bounce with the clutter's shadows: with the same rays `ΔU_b = (F_clutter − F)
+//!   L_imp` exactly (tested). **Weighting:** the thesis says "uniformly distributed shadow
+//!   rays … average"; an unweighted average of uniform rays is not irradiance (it misses the
+//!   cosine), so the rays are cosine-distributed, which makes the average the irradiance
+//!   estimator `F` itself uses (`crate::gather`).
+//! - **Delta reflection** `ΔU_c^X` (§5.3.2): the same rays; one that meets the front side of
+//!   clutter chart `j` first adds `(1/N)·B_j = 1/(N√m_j)`: the irradiance at `x` per unit
+//!   basis coefficient of chart `j`'s outgoing `radiance·π`. The runtime scales `c_j` by
+//!   the chart's albedo, so `ΔU_c` holds geometry only and one bake serves every colour.
+//! - **Clutter gather** `C_b` (§5.3.3): from each clutter texel, `N` cosine rays about its
+//!   normal; a ray that reaches a wall without meeting clutter adds `(ρ/N)·L_imp_Y(y)`
+//!   (clutter in the way shadows it; clutter-to-clutter light is not a DRT path). Per
+//!   instance the rows of all source blocks are stacked, `C = [C_{Y₁} … C_{Yₛ}]`
+//!   (`m × Σ k_b`), and stored in factored form `C ≈ A·W` of rank `k_c` ([`KcMode`]).
+//!
+//! `ρ` is the dictionary's baked albedo: every operator that reads `L_imp` scales with the
+//! walls' albedo exactly as `U_b` does (the runtime's `albedo_scale`).
+//!
+//! # Neighbourhood (§5.3)
+//! "The resulting transport is propagated beyond the current block to all blocks within a
+//! prescribed neighborhood": the receiving blocks are those within `D` connection hops of a
+//! block that a clutter instance overlaps; rays from them go wherever the level lets them.
+//!
+//! # Inpainting (§5.4.2)
+//! A scene texel is *inside* clutter when more than half of its rays meet clutter from behind
+//! (back faces: only the inside of an object, or of a five-faced pillar standing on it, is
+//! seen that way) — the thesis's "all their rays intersecting a clutter object", made robust
+//! to texels on an object's edge. Inside texels are filled ring by ring from valid 8-neighbours
+//! on the same face: `ΔU_b^{X←X}[x] = mean(U_b + ΔU_b^{X←X})[nbrs] − U_b[x]` (average the
+//! shadowed operator, subtract the texel's own unshadowed one), and the mean of the
+//! neighbours' entries for the other records and `ΔU_c`. A texel no valid neighbour reaches
+//! is an inpainting failure (reported, left as traced).
+//!
+//! Every texel's rays are a pure function of `(seed, block, texel)`, so the bytes do not
+//! depend on the thread count.
+
+use crate::TransportError;
+use crate::clutter::ClutterScene;
+use crate::gather::DirectionSet;
+use crate::level::{Level, Links};
+use crate::level_reference::LevelGeometry;
+use crate::shape::{FACE_COUNT, Shape, Texels, face_uv};
+use crate::svd::thin_svd;
+use faer::Mat;
+use penumbra_asset::{Asset, Kind};
+use penumbra_math::progress::Progress;
+use penumbra_math::rng::{hash4, unit_f64};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Hash stage of the DRT rays (distinct from every other stage's stream).
+const STAGE: u64 = 0x4452_5400;
+
+/// Kind version of the `DRTO` sections this bake writes.
+pub const DRTO_KIND_VERSION: u32 = 1;
+
+/// How `C_b` is reduced to rank `k_c`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum KcMode {
+    /// The best rank-`k_c` approximation of the stacked `C` (truncated SVD): `A = U Σ`,
+    /// `W = Vᵀ`.
+    Svd,
+    /// The thesis's reading of "5 modes": the first `k_c` columns of each source block's
+    /// `C_Y` (the leading `b` modes), `W` a 0/1 selection.
+    First,
+    /// No reduction (`A = C`, `W = I`), for measurements.
+    Full,
+}
+
+impl KcMode {
+    /// Name as on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Svd => "svd",
+            Self::First => "first",
+            Self::Full => "full",
+        }
+    }
+
+    /// Parses a command-line name.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "svd" => Some(Self::Svd),
+            "first" => Some(Self::First),
+            "full" => Some(Self::Full),
+            _ => None,
+        }
+    }
+}
+
+/// Bake parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DrtParams {
+    /// Rays per texel (thesis: 1024).
+    pub rays: usize,
+    /// Receiving blocks: within this many connection hops of a cluttered block.
+    pub neighborhood: usize,
+    /// Rank of `C_b` and `C_c` (thesis: 5 for `C_b`).
+    pub k_c: usize,
+    /// Rank of `ΔU_c` (thesis: 32 modes).
+    pub k_dc: usize,
+    /// Bake `C_c`, the clutter-to-clutter gather (not in the thesis; docs/drt.md).
+    pub clutter_to_clutter: bool,
+    /// How `C_b` is reduced.
+    pub kc_mode: KcMode,
+    /// Inpaint texels inside clutter.
+    pub inpaint: bool,
+    /// Texels per box-face edge (thesis: 16).
+    pub clutter_res: usize,
+    /// Charts per box-face edge (1: the thesis's one constant per face).
+    pub clutter_basis_res: usize,
+    /// Seed of every hashed draw.
+    pub seed: u64,
+}
+
+impl Default for DrtParams {
+    fn default() -> Self {
+        Self {
+            rays: 1024,
+            neighborhood: 1,
+            k_c: 5,
+            k_dc: 32,
+            clutter_to_clutter: true,
+            kc_mode: KcMode::Svd,
+            inpaint: true,
+            clutter_res: 16,
+            clutter_basis_res: 2,
+            seed: 0,
+        }
+    }
+}
+
+impl DrtParams {
+    /// Checks every range; the message names the parameter and the allowed range.
+    pub fn validate(&self) -> Result<(), TransportError> {
+        let bad =
+            |w: &str, v: String, r: &str| Err(TransportError::Param(format!("{w} {v} is out of range (allowed: {r})")));
+        if !(16..=1 << 20).contains(&self.rays) {
+            return bad("rays", self.rays.to_string(), "16..=1048576");
+        }
+        if self.neighborhood > 16 {
+            return bad("neighborhood", self.neighborhood.to_string(), "0..=16");
+        }
+        if !(1..=256).contains(&self.k_c) {
+            return bad("kc", self.k_c.to_string(), "1..=256");
+        }
+        if !(1..=4096).contains(&self.k_dc) {
+            return bad("kdc", self.k_dc.to_string(), "1..=4096");
+        }
+        if !(2..=64).contains(&self.clutter_res) {
+            return bad("clutter_res", self.clutter_res.to_string(), "2..=64");
+        }
+        Ok(())
+    }
+
+    /// The normalised parameters (the asset's `meta.params`).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "rays": self.rays,
+            "neighborhood": self.neighborhood,
+            "k_c": self.k_c,
+            "k_dc": self.k_dc,
+            "clutter_to_clutter": self.clutter_to_clutter,
+            "kc_mode": self.kc_mode.name(),
+            "inpaint": self.inpaint,
+            "clutter_res": self.clutter_res,
+            "clutter_basis_res": self.clutter_basis_res,
+            "seed": self.seed,
+            "weighting": "cosine",
+        })
+    }
+}
+
+/// One dictionary shape as DRT needs it.
+#[derive(Debug, Clone)]
+pub struct DrtShape {
+    /// Name.
+    pub name: String,
+    /// Texel layout.
+    pub texels: Texels,
+    /// Modes.
+    pub k_b: usize,
+    /// `L_imp`, `n × k_b` row-major.
+    pub l_imp: Vec<f64>,
+    /// `U_b`, `n × k_b` row-major (for inpainting).
+    pub u_b: Vec<f64>,
+}
+
+/// What DRT reads from an `MRTD` dictionary (kind version 3: `<shape>.l_imp`).
+#[derive(Debug, Clone)]
+pub struct DrtDict {
+    /// Shapes in dictionary order.
+    pub shapes: Vec<DrtShape>,
+    /// Missing-face masks.
+    pub missing: Vec<u8>,
+    /// Texels per face edge.
+    pub face_res: usize,
+    /// The albedo `U_b` and `L_imp` were baked for.
+    pub albedo: f64,
+    /// CRC-32C of the dictionary file.
+    pub crc32c: u32,
+}
+
+fn read_rows(a: &Asset<'_>, name: &str, n: usize, k: usize) -> Result<Vec<f64>, TransportError> {
+    let s = a.section(name).ok_or_else(|| TransportError::Input(format!("section {name} is missing")))?;
+    if s.dims() != [n, k] {
+        return Err(TransportError::Input(format!("section {name}: dims {:?}, expected [{n}, {k}]", s.dims())));
+    }
+    let v = s.as_f32().map_err(|e| TransportError::Input(format!("section {name}: {e}")))?;
+    Ok(v.iter().map(|&x| f64::from(x)).collect())
+}
+
+impl DrtDict {
+    /// Reads the implicit lights and `U_b` of every shape; a dictionary older than kind
+    /// version 3 has no `L_imp` and must be re-baked.
+    pub fn from_asset(a: &Asset<'_>) -> Result<Self, TransportError> {
+        if a.kind() != Kind::MRTD {
+            return Err(TransportError::Input(format!("not an MRT dictionary (kind {})", a.kind().as_str())));
+        }
+        let meta: serde_json::Value =
+            serde_json::from_str(a.meta_json()).map_err(|e| TransportError::Input(e.to_string()))?;
+        let kv = meta["kind_version"].as_u64().unwrap_or(0);
+        if kv < 3 {
+            return Err(TransportError::Input(format!(
+                "the dictionary is MRTD kind_version {kv}, which has no implicit lights (L_imp) for DRT: re-bake it \
+                 with this penumbra (`penumbra mrt dict`, kind_version 3)"
+            )));
+        }
+        let face_res = meta["params"]["face_res"].as_u64().unwrap_or(0) as usize;
+        let albedo = meta["params"]["albedo"].as_f64().unwrap_or(1.0);
+        let mut shapes = Vec::new();
+        let mut missing = Vec::new();
+        for s in meta["shapes"].as_array().ok_or_else(|| TransportError::Input("meta.shapes missing".into()))? {
+            let name = s["name"].as_str().unwrap_or("").to_string();
+            let mut m = 0u8;
+            for f in s["missing_faces"].as_array().into_iter().flatten() {
+                let f = f
+                    .as_str()
+                    .and_then(crate::level::parse_face)
+                    .ok_or_else(|| TransportError::Input("bad missing face in meta".into()))?;
+                m |= 1 << f;
+            }
+            let texels = Texels::new(Shape::new("dict", m), face_res);
+            let n = texels.len();
+            let k_b = a
+                .section(&format!("{name}.u_b"))
+                .and_then(|s| s.dims().get(1).copied())
+                .ok_or_else(|| TransportError::Input(format!("section {name}.u_b is missing")))?;
+            let l_imp = read_rows(a, &format!("{name}.l_imp"), n, k_b)?;
+            let u_b = read_rows(a, &format!("{name}.u_b"), n, k_b)?;
+            shapes.push(DrtShape { name, texels, k_b, l_imp, u_b });
+            missing.push(m);
+        }
+        Ok(Self { shapes, missing, face_res, albedo, crc32c: penumbra_asset::crc32c(a.bytes()) })
+    }
+}
+
+/// `ΔU_b^{dst←src}`: `rows(dst) × k_b(src)`, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeltaRecord {
+    /// Receiving block.
+    pub dst: usize,
+    /// Block whose `b` drives it.
+    pub src: usize,
+    /// Rows (texels of `dst`).
+    pub rows: usize,
+    /// Columns (`k_b` of `src`'s shape).
+    pub cols: usize,
+    /// Values.
+    pub op: Vec<f64>,
+}
+
+/// A reflection operator over the charts its rays reach (`ΔU_c^{dst}` of a receiving block,
+/// or `C_c` of a clutter instance): `rows × charts.len()`, row-major, and its factored form
+/// `A·W` of rank `rank` (what the asset stores).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReflectRecord {
+    /// Receiving block (`ΔU_c`) or instance (`C_c`).
+    pub dst: usize,
+    /// Global chart indices (columns), ascending.
+    pub charts: Vec<usize>,
+    /// Rows (texels of `dst`).
+    pub rows: usize,
+    /// Values (unreduced).
+    pub op: Vec<f64>,
+    /// `rows × rank`, row-major.
+    pub a: Vec<f64>,
+    /// `rank × charts.len()`, row-major.
+    pub w: Vec<f64>,
+    /// Rank kept.
+    pub rank: usize,
+    /// `‖op − A W‖_F / ‖op‖_F`.
+    pub truncation_rel_error: f64,
+}
+
+impl ReflectRecord {
+    /// An unfactored record.
+    pub fn new(dst: usize, charts: Vec<usize>, rows: usize) -> Self {
+        let op = vec![0.0; rows * charts.len()];
+        Self { dst, charts, rows, op, a: Vec::new(), w: Vec::new(), rank: 0, truncation_rel_error: 0.0 }
+    }
+
+    /// Factors `op` to rank `k` (truncated SVD; exact with `W = I` when the operator has no
+    /// more than `k` columns).
+    pub fn factor(&mut self, k: usize) -> Result<(), TransportError> {
+        let (rows, cols) = (self.rows, self.charts.len());
+        if cols <= k || rows == 0 {
+            self.a = self.op.clone();
+            self.w = (0..cols * cols).map(|i| if i / cols == i % cols { 1.0 } else { 0.0 }).collect();
+            self.rank = cols;
+            self.truncation_rel_error = 0.0;
+            return Ok(());
+        }
+        let (a, w, r) = truncated(&self.op, rows, cols, k)?;
+        self.truncation_rel_error = factored_error(&self.op, &a, &w, rows, cols, r);
+        (self.a, self.w, self.rank) = (a, w, r);
+        Ok(())
+    }
+}
+
+/// Best rank-`k` factors `A = U Σ` (`rows × r`), `W = Vᵀ` (`r × cols`) of a row-major matrix;
+/// `r ≤ k` drops singular values below `10⁻¹²·σ₁`.
+fn truncated(op: &[f64], rows: usize, cols: usize, k: usize) -> Result<(Vec<f64>, Vec<f64>, usize), TransportError> {
+    if rows == 0 || cols == 0 {
+        return Ok((Vec::new(), Vec::new(), 0));
+    }
+    let cm = Mat::from_fn(rows, cols, |i, j| op[i * cols + j]);
+    let d = thin_svd(cm.as_ref())?;
+    let s0 = d.s.first().copied().unwrap_or(0.0);
+    let r = k.min(d.s.iter().filter(|&&x| x > 1e-12 * s0 && x > 0.0).count());
+    let mut a = vec![0.0; rows * r];
+    let mut w = vec![0.0; r * cols];
+    for c in 0..r {
+        for t in 0..rows {
+            a[t * r + c] = d.u[(t, c)] * d.s[c];
+        }
+        for j in 0..cols {
+            w[c * cols + j] = d.v[(j, c)];
+        }
+    }
+    Ok((a, w, r))
+}
+
+/// `‖C − A W‖_F / ‖C‖_F`.
+fn factored_error(full: &[f64], a: &[f64], w: &[f64], rows: usize, cols: usize, rank: usize) -> f64 {
+    let norm = full.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mut err2 = 0.0;
+    for t in 0..rows {
+        for j in 0..cols {
+            let aw: f64 = (0..rank).map(|c| a[t * rank + c] * w[c * cols + j]).sum();
+            err2 += (full[t * cols + j] - aw).powi(2);
+        }
+    }
+    if norm > 0.0 { err2.sqrt() / norm } else { 0.0 }
+}
+
+/// `C_b` of one clutter instance in factored form `A·W` (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GatherOp {
+    /// Instance.
+    pub instance: usize,
+    /// Source blocks, ascending; `W`'s columns are their `b` vectors stacked.
+    pub srcs: Vec<usize>,
+    /// Column offset of each source block in the stacked `b` (and the total).
+    pub src_offsets: Vec<usize>,
+    /// `m × r`, row-major.
+    pub a: Vec<f64>,
+    /// `r × K`, row-major.
+    pub w: Vec<f64>,
+    /// Rank `r`.
+    pub rank: usize,
+    /// `‖C − A W‖_F / ‖C‖_F`.
+    pub truncation_rel_error: f64,
+    /// The unreduced `C` (`m × K`, row-major), kept for measurements (not written).
+    pub full: Vec<f64>,
+    /// `C_c`: light from the clutter's charts onto this instance's texels (an extension of
+    /// the thesis, docs/drt.md), factored to rank `k_c`; empty without `clutter_to_clutter`.
+    pub c_c: ReflectRecord,
+}
+
+/// Per receiving block: where its texels start in the concatenated inpainting mask.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Receiver {
+    /// Block.
+    pub block: usize,
+    /// Texels.
+    pub texels: usize,
+    /// Per texel: 0 = outside clutter, 1 = inside and inpainted, 2 = inside, inpainting failed.
+    pub mask: Vec<u8>,
+}
+
+/// Measurements of a DRT bake (`--json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct DrtMetrics {
+    /// Receiving blocks.
+    pub blocks: usize,
+    /// Clutter instances.
+    pub clutter_instances: usize,
+    /// Clutter texels.
+    pub clutter_texels: usize,
+    /// Clutter charts (basis functions).
+    pub clutter_charts: usize,
+    /// Rays per texel.
+    pub rays: usize,
+    /// Rays traced in all.
+    pub rays_traced: u64,
+    /// Scene texels inside clutter that were inpainted.
+    pub inpainted_texels: usize,
+    /// Inside texels no valid neighbour reached.
+    pub inpaint_failures: usize,
+    /// Clutter texels whose outward side lies in no block (they receive nothing).
+    pub clutter_texels_outside: usize,
+    /// Neighbourhood (hops).
+    pub neighborhood: usize,
+    /// `ΔU_b` records.
+    pub delta_occlusion_records: usize,
+    /// `C_b` rank kept per instance (largest).
+    pub k_c: usize,
+    /// `C_b` truncation error per instance (`‖C − A W‖/‖C‖`).
+    pub c_b_truncation_rel_error: Vec<f64>,
+    /// `ΔU_c` rank kept (largest over blocks).
+    pub k_dc: usize,
+    /// `ΔU_c` truncation error per receiving block.
+    pub du_c_truncation_rel_error: Vec<f64>,
+    /// `C_c` truncation error per instance (empty without `clutter_to_clutter`).
+    pub c_c_truncation_rel_error: Vec<f64>,
+}
+
+/// A baked set of DRT operators.
+#[derive(Debug, Clone)]
+pub struct DrtBake {
+    /// Parameters.
+    pub params: DrtParams,
+    /// Receiving blocks in ascending order.
+    pub receivers: Vec<Receiver>,
+    /// `ΔU_b` records sorted by `(dst, src)`.
+    pub du_b: Vec<DeltaRecord>,
+    /// `ΔU_c` per receiving block (ascending).
+    pub du_c: Vec<ReflectRecord>,
+    /// `C_b` per instance.
+    pub c_b: Vec<GatherOp>,
+    /// Measurements.
+    pub metrics: DrtMetrics,
+}
+
+/// World axis-aligned bounds of a block.
+pub fn block_bounds(level: &Level, b: usize) -> [[f64; 3]; 2] {
+    let blk = &level.blocks[b];
+    let (p, q) = (blk.to_world([0.0; 3]), blk.to_world([1.0; 3]));
+    [core::array::from_fn(|k| p[k].min(q[k])), core::array::from_fn(|k| p[k].max(q[k]))]
+}
+
+/// Blocks that an instance's bounds overlap (with a positive-volume intersection).
+pub fn cluttered_blocks(level: &Level, clutter: &ClutterScene, instance: usize) -> Vec<usize> {
+    let [lo, hi] = clutter.bounds[instance];
+    (0..level.blocks.len())
+        .filter(|&b| {
+            let [bl, bh] = block_bounds(level, b);
+            (0..3).all(|k| lo[k] < bh[k] - 1e-9 && hi[k] > bl[k] + 1e-9)
+        })
+        .collect()
+}
+
+/// Blocks within `d` hops (through connections) of any cluttered block, ascending.
+pub fn receiving_blocks(level: &Level, links: &Links, clutter: &ClutterScene, d: usize) -> Vec<usize> {
+    let nb = level.blocks.len();
+    let mut dist = vec![usize::MAX; nb];
+    let mut queue = std::collections::VecDeque::new();
+    for i in 0..clutter.len() {
+        for b in cluttered_blocks(level, clutter, i) {
+            if dist[b] != 0 {
+                dist[b] = 0;
+                queue.push_back(b);
+            }
+        }
+    }
+    while let Some(b) = queue.pop_front() {
+        if dist[b] >= d {
+            continue;
+        }
+        for l in links[b].iter().flatten() {
+            if dist[l.0] == usize::MAX {
+                dist[l.0] = dist[b] + 1;
+                queue.push_back(l.0);
+            }
+        }
+    }
+    (0..nb).filter(|&b| dist[b] != usize::MAX).collect()
+}
+
+/// Everything the ray loops share.
+pub struct Scene<'a> {
+    /// Level geometry (walls, openings).
+    pub geo: LevelGeometry<'a>,
+    /// Clutter.
+    pub clutter: &'a ClutterScene,
+    /// Dictionary.
+    pub dict: &'a DrtDict,
+    /// Per block: the clutter instances that overlap it.
+    pub block_clutter: Vec<Vec<usize>>,
+}
+
+impl<'a> Scene<'a> {
+    /// The scene of a level with clutter.
+    pub fn new(geo: LevelGeometry<'a>, clutter: &'a ClutterScene, dict: &'a DrtDict) -> Self {
+        let mut block_clutter = vec![Vec::new(); geo.level.blocks.len()];
+        for i in 0..clutter.len() {
+            for b in cluttered_blocks(geo.level, clutter, i) {
+                block_clutter[b].push(i);
+            }
+        }
+        Self { geo, clutter, dict, block_clutter }
+    }
+}
+
+impl core::fmt::Debug for Scene<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Scene")
+            .field("blocks", &self.geo.level.blocks.len())
+            .field("clutter", &self.clutter.len())
+            .finish()
+    }
+}
+
+/// A ray's outcome.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RayHit {
+    /// Left the level.
+    Lost,
+    /// Reached a wall (block, local face, world point) with no clutter before it.
+    Wall(usize, usize, [f64; 3]),
+    /// Met clutter first; the wall behind it, if any, and the clutter hit.
+    Clutter(Option<(usize, usize, [f64; 3])>, crate::clutter::ClutterHit),
+}
+
+impl Scene<'_> {
+    /// Casts a unit ray from `x` in block `b`: the wall it reaches through the level, then
+    /// block by block along the way the clutter that overlaps each block (the first block
+    /// with a hit inside its segment holds the closest hit).
+    pub fn cast(&self, b: usize, x: [f64; 3], d: [f64; 3]) -> RayHit {
+        let mut segs = Vec::with_capacity(8);
+        let wall = self.geo.trace_segments(b, x, d, &mut segs).map(|h| (h.block, h.face, h.point));
+        let mut hit = None;
+        for &(y, t0, t1) in &segs {
+            let insts = &self.block_clutter[y];
+            if insts.is_empty() {
+                continue;
+            }
+            if let Some(h) = self.clutter.closest_among(insts, x, d, t0.max(1e-9), t1) {
+                hit = Some(h);
+                break;
+            }
+        }
+        match hit {
+            Some(h) => RayHit::Clutter(wall, h),
+            None => match wall {
+                Some(w) => RayHit::Wall(w.0, w.1, w.2),
+                None => RayHit::Lost,
+            },
+        }
+    }
+
+    /// Adds `w · L_imp_Y(point)` (bilinear) to `acc` (length `k_b(Y)`).
+    pub fn add_l_imp(&self, y: usize, face: usize, point: [f64; 3], w: f64, acc: &mut [f64]) {
+        let blk = &self.geo.level.blocks[y];
+        let sh = &self.dict.shapes[blk.shape];
+        let (u, v) = face_uv(face, blk.to_local(point));
+        let k = sh.k_b;
+        for (t, bw) in sh.texels.bilinear(face, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
+            if bw == 0.0 {
+                continue;
+            }
+            let row = &sh.l_imp[t * k..(t + 1) * k];
+            for (a, r) in acc.iter_mut().zip(row) {
+                *a += w * bw * r;
+            }
+        }
+    }
+}
+
+/// World `(u, v, n)` frame of local face `f` of block `b` and the rotated local direction.
+fn frame_dir(fr: &[[f64; 3]; 3], l: [f64; 3]) -> [f64; 3] {
+    core::array::from_fn(|k| l[0] * fr[0][k] + l[1] * fr[1][k] + l[2] * fr[2][k])
+}
+
+/// Per-texel rotation of the shared direction set.
+fn rotation(seed: u64, item: u64, texel: u64) -> (f64, f64) {
+    let phi = 2.0 * core::f64::consts::PI * unit_f64(hash4(seed, STAGE, item, texel));
+    let (s, c) = phi.sin_cos();
+    (c, s)
+}
+
+fn rotate_z(l: [f64; 3], (c, s): (f64, f64)) -> [f64; 3] {
+    [l[0] * c - l[1] * s, l[0] * s + l[1] * c, l[2]]
+}
+
+/// What the rays of one scene texel found.
+#[derive(Debug, Default)]
+struct TexelRays {
+    /// `(src block, row)` of `ΔU_b`.
+    du_b: Vec<(usize, Vec<f64>)>,
+    /// `(chart, value)` of `ΔU_c`.
+    du_c: Vec<(usize, f64)>,
+    /// Rays meeting clutter from behind.
+    back: usize,
+}
+
+/// The rays of scene texel `t` of block `x`.
+fn scene_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, x: usize, t: usize) -> TexelRays {
+    let blk = &sc.geo.level.blocks[x];
+    let sh = &sc.dict.shapes[blk.shape];
+    let (f, _, _) = sh.texels.coords(t);
+    let p = blk.to_world(sh.texels.position(t));
+    let fr = sc.geo.frame(x, f);
+    let rot = rotation(seed, x as u64, t as u64);
+    let n = dirs.len() as f64;
+    let mut out = TexelRays::default();
+    for dl in &dirs.dirs {
+        let d = frame_dir(&fr, rotate_z(*dl, rot));
+        let RayHit::Clutter(wall, hit) = sc.cast(x, p, d) else { continue };
+        if let Some((y, g, q)) = wall {
+            let k = sc.dict.shapes[sc.geo.level.blocks[y].shape].k_b;
+            let slot = match out.du_b.iter().position(|(s, _)| *s == y) {
+                Some(i) => i,
+                None => {
+                    out.du_b.push((y, vec![0.0; k]));
+                    out.du_b.len() - 1
+                }
+            };
+            sc.add_l_imp(y, g, q, -rho / n, &mut out.du_b[slot].1);
+        }
+        if hit.front {
+            let c = &sc.clutter.charts[hit.chart];
+            let w = 1.0 / (n * (c.count as f64).sqrt());
+            match out.du_c.iter_mut().find(|(j, _)| *j == hit.chart) {
+                Some(e) => e.1 += w,
+                None => out.du_c.push((hit.chart, w)),
+            }
+        } else {
+            out.back += 1;
+        }
+    }
+    out
+}
+
+/// What the rays of one clutter texel found: `(src block, row)` pairs of `C_b` and
+/// `(chart, value)` pairs of `C_c`.
+type ClutterRays = (Vec<(usize, Vec<f64>)>, Vec<(usize, f64)>);
+
+/// The rays of clutter texel `i` (`Err` when its outside lies in no block).
+fn clutter_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, i: usize) -> Result<ClutterRays, usize> {
+    let tx = &sc.clutter.texels[i];
+    let n = tx.normal;
+    // off the surface by a hair: the texel's own triangle is not hit again
+    let eps = 1e-7;
+    let o = [tx.position[0] + eps * n[0], tx.position[1] + eps * n[1], tx.position[2] + eps * n[2]];
+    let Some(b) = sc.geo.block_of(o) else { return Err(i) };
+    let (t, bt) = penumbra_math::warp::orthonormal_basis(n);
+    let fr = [t, bt, n];
+    let rot = rotation(seed ^ 0x4342, u64::MAX - 1, i as u64);
+    let nd = dirs.len() as f64;
+    // bilinear weights per (block, texel) first, one product with L_imp at the end: a ray
+    // costs 4 adds instead of 4·k_b multiply-adds
+    let mut wts: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut cc: Vec<(usize, f64)> = Vec::new();
+    for dl in &dirs.dirs {
+        let d = frame_dir(&fr, rotate_z(*dl, rot));
+        match sc.cast(b, o, d) {
+            RayHit::Wall(y, g, q) => {
+                let blk = &sc.geo.level.blocks[y];
+                let sh = &sc.dict.shapes[blk.shape];
+                let slot = match wts.iter().position(|(s, _)| *s == y) {
+                    Some(s) => s,
+                    None => {
+                        wts.push((y, vec![0.0; sh.texels.len()]));
+                        wts.len() - 1
+                    }
+                };
+                let (u, v) = face_uv(g, blk.to_local(q));
+                for (t, bw) in sh.texels.bilinear(g, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
+                    wts[slot].1[t] += bw;
+                }
+            }
+            RayHit::Clutter(_, h) if h.front => {
+                let w = 1.0 / (nd * (sc.clutter.charts[h.chart].count as f64).sqrt());
+                match cc.iter_mut().find(|(j, _)| *j == h.chart) {
+                    Some(e) => e.1 += w,
+                    None => cc.push((h.chart, w)),
+                }
+            }
+            _ => {}
+        }
+    }
+    let out = wts
+        .into_iter()
+        .map(|(y, w)| {
+            let sh = &sc.dict.shapes[sc.geo.level.blocks[y].shape];
+            let k = sh.k_b;
+            let mut row = vec![0.0; k];
+            for (t, &wt) in w.iter().enumerate() {
+                if wt != 0.0 {
+                    let s = rho / nd * wt;
+                    for (r, l) in row.iter_mut().zip(&sh.l_imp[t * k..(t + 1) * k]) {
+                        *r += s * l;
+                    }
+                }
+            }
+            (y, row)
+        })
+        .collect();
+    Ok((out, cc))
+}
+
+/// Bakes the DRT operators of a level with clutter.
+pub fn bake(
+    level: &Level,
+    links: &Links,
+    dict: &DrtDict,
+    clutter: &ClutterScene,
+    params: &DrtParams,
+    progress: &dyn Progress,
+) -> Result<DrtBake, TransportError> {
+    params.validate()?;
+    if dict.face_res == 0 || level.blocks.iter().any(|b| b.shape >= dict.shapes.len()) {
+        return Err(TransportError::Input("the level does not match the dictionary".into()));
+    }
+    for i in 0..clutter.len() {
+        if cluttered_blocks(level, clutter, i).is_empty() {
+            let [lo, hi] = clutter.bounds[i];
+            return Err(TransportError::Param(format!(
+                "clutter {i} ({}) lies outside every block of the level (bounds {lo:?} – {hi:?})",
+                clutter.specs[i].name
+            )));
+        }
+    }
+    let sc = Scene::new(LevelGeometry { level, links, missing: &dict.missing }, clutter, dict);
+    let dirs = DirectionSet::cosine(params.rays);
+    let rho = dict.albedo;
+    let recv = receiving_blocks(level, links, clutter, params.neighborhood);
+    // scene texels of every receiving block, flattened
+    let items: Vec<(usize, usize)> =
+        recv.iter().flat_map(|&x| (0..dict.shapes[level.blocks[x].shape].texels.len()).map(move |t| (x, t))).collect();
+    let total = (items.len() + clutter.texels.len()) as u64;
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let tick = |k: u64| {
+        let v = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
+        progress.update("drt rays", v.min(total), total);
+    };
+    let per_texel: Vec<TexelRays> = items
+        .par_chunks(64)
+        .flat_map_iter(|chunk| {
+            let v: Vec<TexelRays> =
+                chunk.iter().map(|&(x, t)| scene_texel(&sc, &dirs, rho, params.seed, x, t)).collect();
+            tick(chunk.len() as u64);
+            v
+        })
+        .collect();
+    let gathers: Vec<Result<ClutterRays, usize>> = (0..clutter.texels.len())
+        .into_par_iter()
+        .chunks(64)
+        .flat_map_iter(|chunk| {
+            let n = chunk.len() as u64;
+            let v: Vec<_> = chunk.into_iter().map(|i| clutter_texel(&sc, &dirs, rho, params.seed, i)).collect();
+            tick(n);
+            v
+        })
+        .collect();
+
+    // assemble per receiving block
+    let mut receivers = Vec::new();
+    let mut du_b = Vec::new();
+    let mut du_c = Vec::new();
+    let (mut inpainted, mut failures) = (0, 0);
+    let mut pos = 0;
+    for &x in &recv {
+        let sh = &dict.shapes[level.blocks[x].shape];
+        let n = sh.texels.len();
+        let rows = &per_texel[pos..pos + n];
+        pos += n;
+        let mut srcs: Vec<usize> = rows.iter().flat_map(|r| r.du_b.iter().map(|(s, _)| *s)).collect();
+        let inside: Vec<bool> = rows.iter().map(|r| 2 * r.back > params.rays).collect();
+        if params.inpaint && inside.iter().any(|&b| b) {
+            srcs.push(x);
+        }
+        srcs.sort_unstable();
+        srcs.dedup();
+        let mut recs: Vec<DeltaRecord> = srcs
+            .iter()
+            .map(|&y| {
+                let cols = dict.shapes[level.blocks[y].shape].k_b;
+                let mut op = vec![0.0; n * cols];
+                for (t, r) in rows.iter().enumerate() {
+                    if let Some((_, row)) = r.du_b.iter().find(|(s, _)| *s == y) {
+                        op[t * cols..(t + 1) * cols].copy_from_slice(row);
+                    }
+                }
+                DeltaRecord { dst: x, src: y, rows: n, cols, op }
+            })
+            .collect();
+        let mut charts: Vec<usize> = rows.iter().flat_map(|r| r.du_c.iter().map(|(j, _)| *j)).collect();
+        charts.sort_unstable();
+        charts.dedup();
+        let mut refl = ReflectRecord::new(x, charts.clone(), n);
+        for (t, r) in rows.iter().enumerate() {
+            for &(j, v) in &r.du_c {
+                if let Ok(c) = charts.binary_search(&j) {
+                    refl.op[t * charts.len() + c] = v;
+                }
+            }
+        }
+        let mut mask = vec![0u8; n];
+        if params.inpaint {
+            let (a, f) = inpaint(&sh.texels, &inside, sh, x, &mut recs, &mut refl, &mut mask);
+            inpainted += a;
+            failures += f;
+        } else {
+            for (m, &i) in mask.iter_mut().zip(&inside) {
+                if i {
+                    *m = 2;
+                }
+            }
+            failures += inside.iter().filter(|&&b| b).count();
+        }
+        // records that inpainting left all zero carry nothing
+        recs.retain(|r| r.op.iter().any(|&v| v != 0.0));
+        du_b.extend(recs);
+        refl.factor(params.k_dc)?;
+        du_c.push(refl);
+        receivers.push(Receiver { block: x, texels: n, mask });
+    }
+
+    // C_b per instance; a texel whose outside is in no block (a box face lying on a wall, or
+    // clutter poking through a wall) receives no light from the level: a zero row, counted
+    let empty: ClutterRays = (Vec::new(), Vec::new());
+    let mut outside = 0;
+    let mut c_b = Vec::new();
+    for (i, &[first, count]) in clutter.instance_texels.iter().enumerate() {
+        let rows: Vec<&ClutterRays> = gathers[first..first + count]
+            .iter()
+            .map(|g| match g {
+                Ok(r) => r,
+                Err(_) => {
+                    outside += 1;
+                    &empty
+                }
+            })
+            .collect();
+        let b_rows: Vec<&Vec<(usize, Vec<f64>)>> = rows.iter().map(|r| &r.0).collect();
+        let mut g = gather_op(i, &b_rows, level, dict, params)?;
+        if params.clutter_to_clutter {
+            let mut charts: Vec<usize> = rows.iter().flat_map(|r| r.1.iter().map(|(j, _)| *j)).collect();
+            charts.sort_unstable();
+            charts.dedup();
+            let mut cc = ReflectRecord::new(i, charts.clone(), count);
+            for (t, r) in rows.iter().enumerate() {
+                for &(j, v) in &r.1 {
+                    if let Ok(c) = charts.binary_search(&j) {
+                        cc.op[t * charts.len() + c] = v;
+                    }
+                }
+            }
+            cc.factor(params.k_c)?;
+            g.c_c = cc;
+        }
+        c_b.push(g);
+    }
+    let rays_traced = total * params.rays as u64;
+    let metrics = DrtMetrics {
+        blocks: receivers.len(),
+        clutter_instances: clutter.len(),
+        clutter_texels: clutter.texels.len(),
+        clutter_charts: clutter.charts.len(),
+        rays: params.rays,
+        rays_traced,
+        inpainted_texels: inpainted,
+        inpaint_failures: failures,
+        clutter_texels_outside: outside,
+        neighborhood: params.neighborhood,
+        delta_occlusion_records: du_b.len(),
+        k_c: c_b.iter().map(|g| g.rank).max().unwrap_or(0),
+        c_b_truncation_rel_error: c_b.iter().map(|g| g.truncation_rel_error).collect(),
+        k_dc: du_c.iter().map(|r| r.rank).max().unwrap_or(0),
+        du_c_truncation_rel_error: du_c.iter().map(|r| r.truncation_rel_error).collect(),
+        c_c_truncation_rel_error: if params.clutter_to_clutter {
+            c_b.iter().map(|g| g.c_c.truncation_rel_error).collect()
+        } else {
+            Vec::new()
+        },
+    };
+    Ok(DrtBake { params: params.clone(), receivers, du_b, du_c, c_b, metrics })
+}
+
+/// Ring-by-ring inpainting of the inside texels of one receiving block (module docs).
+/// Returns (inpainted, failed).
+fn inpaint(
+    tex: &Texels,
+    inside: &[bool],
+    sh: &DrtShape,
+    x: usize,
+    recs: &mut [DeltaRecord],
+    refl: &mut ReflectRecord,
+    mask: &mut [u8],
+) -> (usize, usize) {
+    let r = tex.res;
+    let mut valid: Vec<bool> = inside.iter().map(|&b| !b).collect();
+    let k = sh.k_b;
+    // shadowed own-block operator Ū = U_b + ΔU_b^{x←x}, per texel
+    let own = recs.iter().position(|rc| rc.src == x);
+    let mut inpainted = 0;
+    loop {
+        let mut ring: Vec<(usize, Vec<usize>)> = Vec::new();
+        for t in 0..tex.len() {
+            if valid[t] {
+                continue;
+            }
+            let (f, i, j) = tex.coords(t);
+            let mut nb = Vec::new();
+            for dj in -1i64..=1 {
+                for di in -1i64..=1 {
+                    let (ii, jj) = (i as i64 + di, j as i64 + dj);
+                    if (di, dj) == (0, 0) || ii < 0 || jj < 0 || ii >= r as i64 || jj >= r as i64 {
+                        continue;
+                    }
+                    let u = tex.index(f, ii as usize, jj as usize);
+                    if valid[u] {
+                        nb.push(u);
+                    }
+                }
+            }
+            if !nb.is_empty() {
+                ring.push((t, nb));
+            }
+        }
+        if ring.is_empty() {
+            break;
+        }
+        // compute the whole ring from the previous state, then apply it
+        let mut updates: Vec<(usize, Vec<Vec<f64>>, Vec<f64>)> = Vec::with_capacity(ring.len());
+        for (t, nb) in &ring {
+            let m = nb.len() as f64;
+            let per_rec: Vec<Vec<f64>> = recs
+                .iter()
+                .enumerate()
+                .map(|(ri, rc)| {
+                    let mut row = vec![0.0; rc.cols];
+                    for &u in nb {
+                        for c in 0..rc.cols {
+                            let ub = if Some(ri) == own { sh.u_b[u * k + c] } else { 0.0 };
+                            row[c] += (rc.op[u * rc.cols + c] + ub) / m;
+                        }
+                    }
+                    if Some(ri) == own {
+                        for c in 0..rc.cols {
+                            row[c] -= sh.u_b[t * k + c];
+                        }
+                    }
+                    row
+                })
+                .collect();
+            let nc = refl.charts.len();
+            let mut rr = vec![0.0; nc];
+            for &u in nb {
+                for c in 0..nc {
+                    rr[c] += refl.op[u * nc + c] / m;
+                }
+            }
+            updates.push((*t, per_rec, rr));
+        }
+        for (t, per_rec, rr) in updates {
+            for (rc, row) in recs.iter_mut().zip(per_rec) {
+                rc.op[t * rc.cols..(t + 1) * rc.cols].copy_from_slice(&row);
+            }
+            let nc = refl.charts.len();
+            refl.op[t * nc..(t + 1) * nc].copy_from_slice(&rr);
+            valid[t] = true;
+            mask[t] = 1;
+            inpainted += 1;
+        }
+    }
+    let failed = valid.iter().filter(|&&v| !v).count();
+    for (m, v) in mask.iter_mut().zip(&valid) {
+        if !v {
+            *m = 2;
+        }
+    }
+    (inpainted, failed)
+}
+
+/// The factored `C_b` of one instance from its texels' gathered rows.
+fn gather_op(
+    instance: usize,
+    rows: &[&Vec<(usize, Vec<f64>)>],
+    level: &Level,
+    dict: &DrtDict,
+    params: &DrtParams,
+) -> Result<GatherOp, TransportError> {
+    let mut srcs: Vec<usize> = rows.iter().flat_map(|r| r.iter().map(|(s, _)| *s)).collect();
+    srcs.sort_unstable();
+    srcs.dedup();
+    let mut src_offsets = vec![0];
+    for &s in &srcs {
+        let k = dict.shapes[level.blocks[s].shape].k_b;
+        src_offsets.push(src_offsets.last().copied().unwrap_or(0) + k);
+    }
+    let kk = *src_offsets.last().unwrap_or(&0);
+    let m = rows.len();
+    let mut full = vec![0.0; m * kk];
+    for (t, r) in rows.iter().enumerate() {
+        for (s, row) in r.iter() {
+            let Ok(si) = srcs.binary_search(s) else { continue };
+            let o = src_offsets[si];
+            full[t * kk + o..t * kk + o + row.len()].copy_from_slice(row);
+        }
+    }
+    let (a, w, rank) = match params.kc_mode {
+        KcMode::Full => {
+            let mut w = vec![0.0; kk * kk];
+            for i in 0..kk {
+                w[i * kk + i] = 1.0;
+            }
+            (full.clone(), w, kk)
+        }
+        KcMode::First => {
+            let mut cols = Vec::new();
+            for (si, &s) in srcs.iter().enumerate() {
+                let k = dict.shapes[level.blocks[s].shape].k_b;
+                cols.extend((0..params.k_c.min(k)).map(|c| src_offsets[si] + c));
+            }
+            let r = cols.len();
+            let mut a = vec![0.0; m * r];
+            let mut w = vec![0.0; r * kk];
+            for (ci, &c) in cols.iter().enumerate() {
+                for t in 0..m {
+                    a[t * r + ci] = full[t * kk + c];
+                }
+                w[ci * kk + c] = 1.0;
+            }
+            (a, w, r)
+        }
+        KcMode::Svd => truncated(&full, m, kk, params.k_c)?,
+    };
+    let truncation_rel_error = factored_error(&full, &a, &w, m, kk, rank);
+    Ok(GatherOp {
+        instance,
+        srcs,
+        src_offsets,
+        a,
+        w,
+        rank,
+        truncation_rel_error,
+        full,
+        c_c: ReflectRecord::new(instance, Vec::new(), m),
+    })
+}
+
+/// Faces of a block that exist (for callers that walk texels face by face).
+pub fn present_faces(missing: u8) -> Vec<usize> {
+    (0..FACE_COUNT).filter(|f| missing & (1 << f) == 0).collect()
+}
+
+/// Sums `ΔU_b` records into a dense map `(dst, src) → op` (for tests and the reference).
+pub fn delta_map(b: &DrtBake) -> BTreeMap<(usize, usize), &DeltaRecord> {
+    b.du_b.iter().map(|r| ((r.dst, r.src), r)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clutter::{BoxFaces, ClutterShape, ClutterSpec, quat_y};
+    use crate::level::Block;
+    use crate::reference::point_polygon_form_factor;
+    use crate::shape::{CLOSED, exit_face};
+    use penumbra_geometry::TriMesh;
+    use penumbra_math::progress::NoProgress;
+
+    const R: usize = 5;
+    const KB: usize = 3;
+
+    /// A one-shape (closed cube) dictionary with hashed `L_imp` and `U_b`; the identities
+    /// tested hold for any `L_imp`.
+    fn dict(albedo: f64, ones: bool) -> DrtDict {
+        let texels = Texels::new(CLOSED, R);
+        let n = texels.len();
+        let h = |i: usize, j: u64| unit_f64(hash4(7, 99, i as u64, j));
+        let l_imp =
+            (0..n * KB).map(|i| if ones { if i % KB == 0 { 1.0 } else { 0.0 } } else { h(i, 0) - 0.3 }).collect();
+        let u_b = (0..n * KB).map(|i| h(i, 1)).collect();
+        DrtDict {
+            shapes: vec![DrtShape { name: "closed".into(), texels, k_b: KB, l_imp, u_b }],
+            missing: vec![0],
+            face_res: R,
+            albedo,
+            crc32c: 0,
+        }
+    }
+
+    fn room() -> (Level, Links) {
+        let level = Level {
+            blocks: vec![Block { shape: 0, rotation: 0, translation: [0.5; 3], scale: [1.0; 3] }],
+            connections: vec![],
+        };
+        (level, vec![[None; 6]])
+    }
+
+    fn pillar(x: f64, z: f64, deg: f64) -> ClutterSpec {
+        ClutterSpec {
+            name: "p".into(),
+            shape: ClutterShape::Box { size: [0.2, 0.6, 0.15], faces: BoxFaces::NoBottom },
+            translate: [x, 0.0, z],
+            rotate: quat_y(deg),
+            scale: 1.0,
+            albedo: [0.5, 0.4, 0.3],
+        }
+    }
+
+    /// A square `[x0,x1]×[z0,z1]` at height `y`, facing `dir` (±1 along y).
+    fn quad(x0: f64, x1: f64, z0: f64, z1: f64, y: f64, down: bool) -> ClutterSpec {
+        let positions = vec![[x0, y, z0], [x1, y, z0], [x1, y, z1], [x0, y, z1]];
+        let indices = if down { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 2, 1], [0, 3, 2]] };
+        ClutterSpec {
+            name: "quad".into(),
+            shape: ClutterShape::Mesh(TriMesh { positions, indices }),
+            translate: [0.0; 3],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 1.0,
+            albedo: [0.5; 3],
+        }
+    }
+
+    fn params(rays: usize) -> DrtParams {
+        DrtParams {
+            rays,
+            neighborhood: 0,
+            k_c: KB,
+            k_dc: 4096,
+            clutter_to_clutter: false,
+            kc_mode: KcMode::Full,
+            inpaint: false,
+            clutter_res: 4,
+            clutter_basis_res: 1,
+            seed: 3,
+        }
+    }
+
+    #[test]
+    fn no_clutter_means_no_delta_operators() {
+        let d = dict(0.7, false);
+        let (level, links) = room();
+        let b = bake(&level, &links, &d, &ClutterScene::empty(), &params(64), &NoProgress).unwrap();
+        assert!(b.du_b.is_empty() && b.du_c.is_empty() && b.c_b.is_empty() && b.receivers.is_empty());
+        // clutter in the room but rays that miss it carry nothing: a texel's row is zero
+        // exactly when none of its rays meets the clutter
+        let c = ClutterScene::new(&[pillar(0.5, 0.5, 20.0)], 4).unwrap();
+        let b = bake(&level, &links, &d, &c, &params(64), &NoProgress).unwrap();
+        let rec = &b.du_b[0];
+        let tex = &d.shapes[0].texels;
+        let ceiling = tex.face_range(3);
+        // the ceiling's rays go down; some meet the pillar, so at least one row is non-zero
+        assert!(ceiling.clone().any(|t| rec.op[t * KB..(t + 1) * KB].iter().any(|&v| v != 0.0)));
+    }
+
+    #[test]
+    fn delta_occlusion_is_the_clutter_gather_difference_times_l_imp() {
+        // ΔU_b = (F_clutter − F) L_imp with the same rays: F by exit faces of the unit cube and
+        // bilinear weights, F_clutter the same without the rays the clutter blocks
+        let d = dict(0.7, false);
+        let (level, links) = room();
+        let c = ClutterScene::new(&[pillar(0.4, 0.45, 30.0), pillar(0.75, 0.7, -10.0)], 4).unwrap();
+        let p = params(128);
+        let b = bake(&level, &links, &d, &c, &p, &NoProgress).unwrap();
+        let rec = b.du_b.iter().find(|r| r.src == 0).unwrap();
+        let tex = &d.shapes[0].texels;
+        let n = tex.len();
+        let dirs = DirectionSet::cosine(p.rays);
+        let mut max_err: f64 = 0.0;
+        let mut max_val: f64 = 0.0;
+        for t in 0..n {
+            let (f, _, _) = tex.coords(t);
+            let x = tex.position(t);
+            let fr = crate::shape::FACE_FRAMES[f];
+            let rot = rotation(p.seed, 0, t as u64);
+            let mut f_row = vec![0.0; n];
+            let mut fc_row = vec![0.0; n];
+            for dl in &dirs.dirs {
+                let l = rotate_z(*dl, rot);
+                let dw: [f64; 3] = core::array::from_fn(|k| l[0] * fr.u[k] + l[1] * fr.v[k] + l[2] * fr.n[k]);
+                let (g, tt) = exit_face(x, dw);
+                let q: [f64; 3] = core::array::from_fn(|k| x[k] + tt * dw[k]);
+                let (u, v) = face_uv(g, q);
+                let blocked = c.closest(x, dw, 1e-9, tt).is_some();
+                for (s, w) in tex.bilinear(g, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
+                    f_row[s] += d.albedo * w / p.rays as f64;
+                    if !blocked {
+                        fc_row[s] += d.albedo * w / p.rays as f64;
+                    }
+                }
+            }
+            for m in 0..KB {
+                let want: f64 = (0..n).map(|s| (fc_row[s] - f_row[s]) * d.shapes[0].l_imp[s * KB + m]).sum();
+                let got = rec.op[t * KB + m];
+                max_err = max_err.max((got - want).abs());
+                max_val = max_val.max(want.abs());
+            }
+        }
+        assert!(max_val > 0.01, "the clutter must shadow something ({max_val})");
+        assert!(max_err < 1e-12, "{max_err}");
+    }
+
+    #[test]
+    fn delta_reflection_of_a_planar_face_is_its_form_factor() {
+        // a horizontal square facing down over the floor: under constant radiosity the floor
+        // centre receives ρ_c·E·FF(x → square) (Lambert's point-to-polygon form factor)
+        let d = dict(0.7, false);
+        let (level, links) = room();
+        let (x0, x1, z0, z1, y) = (0.3, 0.7, 0.25, 0.75, 0.4);
+        let c = ClutterScene::new(&[quad(x0, x1, z0, z1, y, true)], 4).unwrap();
+        assert_eq!(c.charts.len(), 1);
+        let mut p = params(1 << 15);
+        p.rays = 1 << 15;
+        let b = bake(&level, &links, &d, &c, &p, &NoProgress).unwrap();
+        let tex = &d.shapes[0].texels;
+        let refl = &b.du_c[0];
+        let m = c.charts[0].count as f64;
+        for t in tex.face_range(2) {
+            let x = tex.position(t);
+            let poly = [[x0, y, z0], [x0, y, z1], [x1, y, z1], [x1, y, z0]];
+            let ff = point_polygon_form_factor(x, [0.0, 1.0, 0.0], &poly);
+            // c = ρ_c Σ_t B_t E = ρ_c √m E for constant E = 1 on the chart
+            let got = refl.op[t] * 0.5 * m.sqrt();
+            let want = 0.5 * ff;
+            assert!((got - want).abs() < 0.01 * want + 2e-3, "texel {t}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn clutter_gather_under_uniform_walls_is_albedo_times_the_visible_wall_fraction() {
+        // L_imp's first mode is 1 on every wall: C_b's first column is ρ × the fraction of
+        // cosine rays from a clutter texel that reach a wall. The top of a low box under a
+        // large horizontal plate sees the walls except the plate: 1 − FF(x → plate).
+        let d = dict(0.8, true);
+        let (level, links) = room();
+        let low = ClutterSpec {
+            name: "low".into(),
+            shape: ClutterShape::Box { size: [0.3, 0.1, 0.3], faces: BoxFaces::All },
+            translate: [0.5, 0.0, 0.5],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 1.0,
+            albedo: [0.5; 3],
+        };
+        let (x0, x1, z0, z1, y) = (0.2, 0.8, 0.15, 0.85, 0.35);
+        let c = ClutterScene::new(&[low, quad(x0, x1, z0, z1, y, true)], 4).unwrap();
+        let mut p = params(1 << 14);
+        p.kc_mode = KcMode::Full;
+        let b = bake(&level, &links, &d, &c, &p, &NoProgress).unwrap();
+        let g = &b.c_b[0];
+        let kk = *g.src_offsets.last().unwrap();
+        let [first, _] = c.instance_texels[0];
+        let top = c.charts.iter().position(|ch| ch.instance == 0 && c.texels[ch.first].normal[1] > 0.5).unwrap();
+        let ch = c.charts[top];
+        for t in ch.first..ch.first + ch.count {
+            let x = c.texels[t].position;
+            let poly = [[x0, y, z0], [x0, y, z1], [x1, y, z1], [x1, y, z0]];
+            let want = 0.8 * (1.0 - point_polygon_form_factor(x, [0.0, 1.0, 0.0], &poly));
+            let got = g.full[(t - first) * kk];
+            assert!((got - want).abs() < 0.01, "texel {t}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn inside_texels_are_inpainted_from_their_neighbours() {
+        // a wide pillar covers floor texels; with inpainting on they are filled and flagged
+        let d = dict(0.7, false);
+        let (level, links) = room();
+        let wide = ClutterSpec {
+            name: "wide".into(),
+            shape: ClutterShape::Box { size: [0.45, 0.5, 0.45], faces: BoxFaces::NoBottom },
+            translate: [0.5, 0.0, 0.5],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 1.0,
+            albedo: [0.5; 3],
+        };
+        let c = ClutterScene::new(&[wide], 4).unwrap();
+        let mut p = params(128);
+        p.inpaint = true;
+        let b = bake(&level, &links, &d, &c, &p, &NoProgress).unwrap();
+        let tex = &d.shapes[0].texels;
+        let mask = &b.receivers[0].mask;
+        // floor texel centres at (i+½)/5: 0.3, 0.5, 0.7 in x and z are under the box
+        // [0.275, 0.725]² — 9 texels
+        let under: Vec<usize> = tex.face_range(2).filter(|&t| mask[t] != 0).collect();
+        assert_eq!(under.len(), 9, "{under:?}");
+        assert!(
+            under.iter().all(|&t| mask[t] == 1) && b.metrics.inpainted_texels == 9 && b.metrics.inpaint_failures == 0
+        );
+        // the centre texel has no outside neighbour: it is filled in the second ring, from
+        // the first ring's values — so its shadowed operator equals the first ring's mean
+        let own = b.du_b.iter().find(|r| r.src == 0).unwrap();
+        let centre = tex.index(2, 2, 2);
+        let ring: Vec<usize> = under.iter().copied().filter(|&t| t != centre).collect();
+        for m in 0..KB {
+            let ubar = |t: usize| own.op[t * KB + m] + d.shapes[0].u_b[t * KB + m];
+            let mean = ring.iter().map(|&t| ubar(t)).sum::<f64>() / ring.len() as f64;
+            assert!((ubar(centre) - mean).abs() < 1e-12);
+        }
+    }
+}

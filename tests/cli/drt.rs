@@ -1,0 +1,146 @@
+//! `penumbra drt` and `penumbra verify drt` (MRT thesis ch. 5).
+
+use crate::mrt_level::small_dict;
+use crate::{penumbra, run};
+use serde_json::Value;
+use std::path::Path;
+
+const FAST: &[&str] = &["--clutter-res", "4", "--rays", "128"];
+
+fn drt_json(args: &[&str], dict: &Path, out: &Path) -> (i32, Value, String) {
+    let (code, stdout, stderr) =
+        run(penumbra().arg("drt").args(args).args(FAST).arg("--dict").arg(dict).arg("-o").arg(out).arg("--json"));
+    (code, serde_json::from_str(&stdout).unwrap_or(Value::Null), stderr)
+}
+
+#[test]
+fn drt_bakes_deterministically_and_beats_mrt_alone_on_the_pillars() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("p.drto");
+    let (code, v, stderr) = drt_json(&["--example", "pillars"], &d, &out);
+    assert_eq!(code, 0, "{stderr}");
+    for k in [
+        "blocks",
+        "clutter_instances",
+        "clutter_texels",
+        "rays",
+        "inpainted_texels",
+        "inpaint_failures",
+        "neighborhood",
+        "bytes",
+        "seconds",
+        "output",
+    ] {
+        assert!(v.get(k).is_some(), "missing {k}: {v}");
+    }
+    assert_eq!(v["blocks"], 1);
+    assert_eq!(v["clutter_instances"], 4);
+    // four five-faced pillars, 4×4 texels per face
+    assert_eq!(v["clutter_texels"], 4 * 5 * 16);
+    assert_eq!(v["bytes"].as_u64().unwrap(), std::fs::metadata(&out).unwrap().len());
+    let a = penumbra_asset::AssetFile::open(&out).unwrap();
+    assert_eq!(a.asset().kind().as_str(), "DRTO");
+    a.asset().require_known(penumbra_transport::drt_asset::DRTO_SECTIONS).unwrap();
+    // same bytes with one thread
+    let again = dir.path().join("again.drto");
+    let (code, _, stderr) = run(penumbra()
+        .args(["--threads", "1", "drt", "--example", "pillars"])
+        .args(FAST)
+        .arg("--dict")
+        .arg(&d)
+        .arg("-o")
+        .arg(&again));
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+
+    // verify the baked asset against the path tracer with the pillars in it
+    let png = dir.path().join("p.png");
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "drt", "--example", "pillars", "--clutter-res", "4", "--reference-rays", "256", "--json"])
+        .arg("--dict")
+        .arg(&d)
+        .arg("--drt")
+        .arg(&out)
+        .arg("--image")
+        .arg(&png));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    for k in [
+        "rel_error_mrt",
+        "rel_error_mrt_drt",
+        "rel_error_clutter_cb",
+        "rel_error_clutter_probes",
+        "rel_error_mrt_drt_without_inpainting",
+        "reference_noise",
+        "ms_runtime",
+        "per_block",
+    ] {
+        assert!(v.get(k).is_some(), "missing {k}");
+    }
+    let (mrt, drt) = (v["rel_error_mrt"].as_f64().unwrap(), v["rel_error_mrt_drt"].as_f64().unwrap());
+    assert!(drt < 0.6 * mrt, "DRT {drt} vs MRT alone {mrt}");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    // a gate below the measured error exits 1
+    let (code, _, _) = run(penumbra()
+        .args(["verify", "drt", "--example", "pillars", "--clutter-res", "4", "--reference-rays", "16"])
+        .arg("--dict")
+        .arg(&d)
+        .arg("--drt")
+        .arg(&out)
+        .args(["--max-rel-error", "1e-9"]));
+    assert_eq!(code, 1);
+    // an asset of another scene is refused
+    let (code, _, stderr) = run(penumbra()
+        .args(["verify", "drt", "--example", "cornell", "--clutter-res", "4"])
+        .arg("--dict")
+        .arg(&d)
+        .arg("--drt")
+        .arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("another dictionary, level or clutter"), "{stderr}");
+}
+
+#[test]
+fn bad_drt_inputs_are_clean_errors_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("x.drto");
+    // a kind_version 2 dictionary has no L_imp: re-bake it
+    let v2 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets/v1/mrt-cube2d-r4-interfaces.mrtd");
+    let (code, _, stderr) = drt_json(&["--example", "pillars"], &v2, &out);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("kind_version 2") && stderr.contains("re-bake"), "{stderr}");
+    let level = dir.path().join("room.toml");
+    std::fs::write(&level, "[[block]]\nshape = \"closed\"\ntranslation = [0.5, 0.5, 0.5]\n").unwrap();
+    let cases = [
+        ("[[clutter]]\nbox = { size = [0.2, 0.5, 0.2] }\ntranslate = [0.5, 0, 0.5]\nrotat = 3\n", "rotat"),
+        ("[[clutter]]\ntranslate = [0.5, 0, 0.5]\n", "clutter[0].mesh"),
+        ("[[clutter]]\nbox = { size = [0.2, 0.5, 0.2] }\ntranslate = [5, 0, 5]\n", "outside every block"),
+        ("[[clutter]]\nmesh = \"missing.obj\"\ntranslate = [0.5, 0, 0.5]\n", "missing.obj"),
+    ];
+    for (src, want) in cases {
+        let c = dir.path().join("c.toml");
+        std::fs::write(&c, src).unwrap();
+        let (code, _, stderr) =
+            drt_json(&["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap()], &d, &out);
+        assert_eq!(code, 2, "{src}: {stderr}");
+        assert!(stderr.contains(want), "{src}: {stderr}");
+        assert!(!out.exists(), "no output on error");
+    }
+    // a mesh clutter from an OBJ the test writes
+    let obj = dir.path().join("crate.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n",
+    )
+    .unwrap();
+    let c = dir.path().join("c.toml");
+    std::fs::write(&c, "[[clutter]]\nmesh = \"crate.obj\"\ntranslate = [0.4, 0.0, 0.4]\nscale = 0.2\n").unwrap();
+    let (code, v, stderr) = drt_json(&["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap()], &d, &out);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(v["clutter_instances"], 1);
+    // six box-projected charts of 4×4 texels (the mesh's largest extent / 4 = the face size / 4)
+    assert_eq!(v["clutter_texels"], 6 * 16);
+}
