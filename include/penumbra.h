@@ -22,7 +22,7 @@
 #define PN_OK 0
 
 /*
- A required pointer was NULL.
+ A required pointer was NULL, or an array pointer is not aligned for its element type.
  */
 #define PN_ERR_NULL 1
 

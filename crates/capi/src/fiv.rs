@@ -54,8 +54,8 @@ pub unsafe extern "C" fn pn_fiv_table_free(t: *mut pn_fiv_table) {
 pub unsafe extern "C" fn pn_fiv_table_ball(t: *const pn_fiv_table, center: *mut f32, radius: *mut f32) -> i32 {
     guard(|| {
         let Some(t) = handle(t) else { return PN_ERR_NULL };
-        if let Some(r) = crate::slice_mut(radius, usize::from(!radius.is_null())) {
-            r.iter_mut().for_each(|v| *v = t.table.radius());
+        if let Some(r) = crate::slice_mut(radius, 1) {
+            r[0] = t.table.radius();
         }
         put3(center, t.table.center())
     })

@@ -38,7 +38,7 @@ pub const PN_ABI_VERSION: u32 = 1;
 
 /// Success.
 pub const PN_OK: i32 = 0;
-/// A required pointer was NULL.
+/// A required pointer was NULL, or an array pointer is not aligned for its element type.
 pub const PN_ERR_NULL: i32 = 1;
 /// The bytes are not a valid asset container (see the message).
 pub const PN_ERR_ASSET: i32 = 2;

@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::OnceLock;
 
 /// The workspace root.
 pub fn root() -> PathBuf {
@@ -54,3 +55,23 @@ pub const C_FLAGS: &[&str] = &[
     "-fno-sanitize-recover=all",
     "-fno-omit-frame-pointer",
 ];
+
+/// This crate's static library, built by a nested `cargo build` into the target directory
+/// the tests run from (cargo does not build the staticlib for integration tests).
+pub fn staticlib() -> PathBuf {
+    static LIB: OnceLock<PathBuf> = OnceLock::new();
+    LIB.get_or_init(|| {
+        let exe = std::env::current_exe().unwrap();
+        let profile_dir = exe.parent().and_then(Path::parent).unwrap().to_path_buf(); // target/<profile>
+        let target_dir = profile_dir.parent().unwrap();
+        let mut cmd = Command::new(env!("CARGO"));
+        cmd.args(["build", "--quiet", "-p", "penumbra-capi", "--lib", "--target-dir"]).arg(target_dir);
+        if profile_dir.file_name().is_some_and(|n| n == "release") {
+            cmd.arg("--release");
+        }
+        let status = cmd.current_dir(root()).status().expect("run cargo build");
+        assert!(status.success(), "cargo build -p penumbra-capi failed");
+        profile_dir.join("libpenumbra_capi.a")
+    })
+    .clone()
+}
