@@ -73,6 +73,26 @@
 #define PN_FIV_PARTIAL_SCALE 1
 
 /*
+ Zonal table `cap_log` (starred ZH of a blocker cap's log visibility), argument θ in radians.
+ */
+#define PN_TABLE_CAP_LOG 0
+
+/*
+ Zonal table `cap_visibility`, argument θ in radians.
+ */
+#define PN_TABLE_CAP_VISIBILITY 1
+
+/*
+ Zonal table `proxy_log_occlusion` (smoothly clamped), argument α = sin θ.
+ */
+#define PN_TABLE_PROXY_LOG_OCCLUSION 2
+
+/*
+ Zonal table `proxy_visibility` (smoothly clamped), argument α = sin θ.
+ */
+#define PN_TABLE_PROXY_VISIBILITY 3
+
+/*
  SH exponential: HYB (default), OL, PS*-p.
  */
 #define PN_EXP_HYB 0
@@ -466,6 +486,39 @@ void pn_tables_free(struct pn_tables *t);
 uint32_t pn_tables_order(const struct pn_tables *t);
 
 /*
+ Looks up zonal table `which` (`PN_TABLE_*`) at `x` by linear interpolation (spec §15.1):
+ `order` starred ZH coefficients into `out` (`out_len ≥ order`).
+
+ # Safety
+ `t` live; `out` points to `out_len` floats.
+ */
+int32_t pn_tables_zonal(const struct pn_tables *t,
+                        uint32_t which,
+                        float x,
+                        float *out,
+                        size_t out_len);
+
+/*
+ SH product `out = f * g` truncated to the tables' order (`len ≥ order²` each).
+
+ # Safety
+ `f`, `g`, `out` point to `len` floats; `out` overlaps neither input.
+ */
+int32_t pn_tables_product(const struct pn_tables *t,
+                          const float *f,
+                          const float *g,
+                          float *out,
+                          size_t len);
+
+/*
+ The expansion factors `η_shadow` (used by the clamp) and `η_indirect` into `out[0..2]`.
+
+ # Safety
+ `t` live; `out` points to 2 floats.
+ */
+int32_t pn_tables_eta(const struct pn_tables *t, float *out);
+
+/*
  Makes an evaluator: `light` holds the environment radiance's RGB SH coefficients at the
  tables' order, `order² × 3` floats (coefficient-major: r, g, b of coefficient 0, then 1…).
  The evaluator borrows `tables`, which must outlive it.
@@ -562,6 +615,35 @@ int32_t pn_shadow_irradiance_batch(const struct pn_shadow *s,
                                    const struct pn_sphere *sph,
                                    size_t count,
                                    float *out);
+
+/*
+ Product-space accumulation (SHEXP eq. 6, the reference `penumbra verify` compares the log
+ path against): the blockers' cap visibilities multiplied one by one, then shaded. RGB into `out`.
+
+ # Safety
+ `p`, `n`, `out` point to 3 floats; `sph` to `count` spheres.
+ */
+int32_t pn_shadow_irradiance_product(const struct pn_shadow *s,
+                                     const float *p,
+                                     const float *n,
+                                     const struct pn_sphere *sph,
+                                     size_t count,
+                                     float *out);
+
+/*
+ Accumulates and exponentiates with evaluator `accum` (e.g. higher-order tables), then
+ shades with `s` at its order (SHEXP Fig. 7e): RGB into `out`.
+
+ # Safety
+ Both evaluators live; `p`, `n`, `out` 3 floats; `sph` `count` spheres.
+ */
+int32_t pn_shadow_irradiance_accumulated_by(const struct pn_shadow *s,
+                                            const struct pn_shadow *accum,
+                                            const float *p,
+                                            const float *n,
+                                            const struct pn_sphere *sph,
+                                            size_t count,
+                                            float *out);
 
 /*
  Direct (shadowed) irradiance and indirect light from the proxies (IBPA §5) for a receiver

@@ -75,6 +75,86 @@ pub unsafe extern "C" fn pn_tables_order(t: *const pn_tables) -> u32 {
     handle(t).map_or(0, |t| t.tables.order() as u32)
 }
 
+/// Zonal table `cap_log` (starred ZH of a blocker cap's log visibility), argument θ in radians.
+pub const PN_TABLE_CAP_LOG: u32 = 0;
+/// Zonal table `cap_visibility`, argument θ in radians.
+pub const PN_TABLE_CAP_VISIBILITY: u32 = 1;
+/// Zonal table `proxy_log_occlusion` (smoothly clamped), argument α = sin θ.
+pub const PN_TABLE_PROXY_LOG_OCCLUSION: u32 = 2;
+/// Zonal table `proxy_visibility` (smoothly clamped), argument α = sin θ.
+pub const PN_TABLE_PROXY_VISIBILITY: u32 = 3;
+
+/// Looks up zonal table `which` (`PN_TABLE_*`) at `x` by linear interpolation (spec §15.1):
+/// `order` starred ZH coefficients into `out` (`out_len ≥ order`).
+///
+/// # Safety
+/// `t` live; `out` points to `out_len` floats.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_tables_zonal(
+    t: *const pn_tables,
+    which: u32,
+    x: f32,
+    out: *mut f32,
+    out_len: usize,
+) -> i32 {
+    guard(|| {
+        let (Some(t), Some(o)) = (handle(t), slice_mut(out, out_len)) else { return PN_ERR_NULL };
+        let n = t.tables.order();
+        if out_len < n {
+            return PN_ERR_SIZE;
+        }
+        let o = &mut o[..n];
+        match which {
+            PN_TABLE_CAP_LOG => t.tables.cap_log(x, o),
+            PN_TABLE_CAP_VISIBILITY => t.tables.cap_visibility(x, o),
+            PN_TABLE_PROXY_LOG_OCCLUSION => t.tables.proxy_log_occlusion(x, o),
+            PN_TABLE_PROXY_VISIBILITY => t.tables.proxy_visibility(x, o),
+            _ => return PN_ERR_RANGE,
+        }
+        PN_OK
+    })
+}
+
+/// SH product `out = f * g` truncated to the tables' order (`len ≥ order²` each).
+///
+/// # Safety
+/// `f`, `g`, `out` point to `len` floats; `out` overlaps neither input.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_tables_product(
+    t: *const pn_tables,
+    f: *const f32,
+    g: *const f32,
+    out: *mut f32,
+    len: usize,
+) -> i32 {
+    guard(|| {
+        let (Some(t), Some(f), Some(g), Some(o)) = (handle(t), slice(f, len), slice(g, len), slice_mut(out, len))
+        else {
+            return PN_ERR_NULL;
+        };
+        let n2 = t.tables.order() * t.tables.order();
+        if len < n2 {
+            return PN_ERR_SIZE;
+        }
+        t.tables.product(&f[..n2], &g[..n2], &mut o[..n2]);
+        PN_OK
+    })
+}
+
+/// The expansion factors `η_shadow` (used by the clamp) and `η_indirect` into `out[0..2]`.
+///
+/// # Safety
+/// `t` live; `out` points to 2 floats.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_tables_eta(t: *const pn_tables, out: *mut f32) -> i32 {
+    guard(|| {
+        let (Some(t), Some(o)) = (handle(t), slice_mut(out, 2)) else { return PN_ERR_NULL };
+        o[0] = t.tables.eta_shadow();
+        o[1] = t.tables.eta_indirect();
+        PN_OK
+    })
+}
+
 /// SH exponential: HYB (default), OL, PS*-p.
 pub const PN_EXP_HYB: u32 = 0;
 /// Optimal linear, no products.
@@ -288,6 +368,53 @@ pub unsafe extern "C" fn pn_shadow_irradiance_batch(
         };
         s.ev.irradiance_batch(p, n, sph, o);
         PN_OK
+    })
+}
+
+/// Product-space accumulation (SHEXP eq. 6, the reference `penumbra verify` compares the log
+/// path against): the blockers' cap visibilities multiplied one by one, then shaded. RGB into `out`.
+///
+/// # Safety
+/// `p`, `n`, `out` point to 3 floats; `sph` to `count` spheres.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_shadow_irradiance_product(
+    s: *const pn_shadow,
+    p: *const f32,
+    n: *const f32,
+    sph: *const pn_sphere,
+    count: usize,
+    out: *mut f32,
+) -> i32 {
+    guard(|| {
+        let (Some(s), Some(p), Some(n), Some(sph)) = (handle(s), vec3(p), vec3(n), spheres(sph, count)) else {
+            return PN_ERR_NULL;
+        };
+        put3(out, s.ev.irradiance_product(p, n, sph))
+    })
+}
+
+/// Accumulates and exponentiates with evaluator `accum` (e.g. higher-order tables), then
+/// shades with `s` at its order (SHEXP Fig. 7e): RGB into `out`.
+///
+/// # Safety
+/// Both evaluators live; `p`, `n`, `out` 3 floats; `sph` `count` spheres.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_shadow_irradiance_accumulated_by(
+    s: *const pn_shadow,
+    accum: *const pn_shadow,
+    p: *const f32,
+    n: *const f32,
+    sph: *const pn_sphere,
+    count: usize,
+    out: *mut f32,
+) -> i32 {
+    guard(|| {
+        let (Some(s), Some(a), Some(p), Some(n), Some(sph)) =
+            (handle(s), handle(accum), vec3(p), vec3(n), spheres(sph, count))
+        else {
+            return PN_ERR_NULL;
+        };
+        put3(out, s.ev.irradiance_accumulated_by(&a.ev, p, n, sph))
     })
 }
 

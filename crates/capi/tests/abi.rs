@@ -106,6 +106,55 @@ fn shadow_abi_equals_the_runtime() {
     }
     assert!(shadowed >= 3, "only {shadowed} receivers in shadow: the test would not see a wrong shadow");
 
+    // product space, accumulation by another evaluator (here the same one: equal to irradiance)
+    let p0 = pts[0];
+    let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
+    unsafe {
+        pn_shadow_irradiance_product(ev, p0.as_ptr(), n.as_ptr(), c_leaves.as_ptr(), c_leaves.len(), a.as_mut_ptr());
+        pn_shadow_irradiance_accumulated_by(
+            ev,
+            ev,
+            p0.as_ptr(),
+            n.as_ptr(),
+            c_leaves.as_ptr(),
+            c_leaves.len(),
+            b.as_mut_ptr(),
+        );
+    }
+    assert_eq!(a, rust.irradiance_product(p0, n, &leaves));
+    assert_eq!(b, rust.irradiance_accumulated_by(&rust, p0, n, &leaves));
+    assert_ne!(a, b, "product space and log space differ");
+    // table lookups, the SH product, η
+    let mut z = [0.0f32; 3];
+    for (which, x) in [
+        (PN_TABLE_CAP_LOG, 0.7f32),
+        (PN_TABLE_CAP_VISIBILITY, 0.7),
+        (PN_TABLE_PROXY_LOG_OCCLUSION, 0.4),
+        (PN_TABLE_PROXY_VISIBILITY, 0.4),
+    ] {
+        assert_eq!(unsafe { pn_tables_zonal(t, which, x, z.as_mut_ptr(), 3) }, PN_OK);
+        let mut want = [0.0f32; 3];
+        match which {
+            PN_TABLE_CAP_LOG => tables.cap_log(x, &mut want),
+            PN_TABLE_CAP_VISIBILITY => tables.cap_visibility(x, &mut want),
+            PN_TABLE_PROXY_LOG_OCCLUSION => tables.proxy_log_occlusion(x, &mut want),
+            _ => tables.proxy_visibility(x, &mut want),
+        }
+        assert_eq!(z, want);
+        assert!(z.iter().any(|&v| v != 0.0));
+    }
+    assert_eq!(unsafe { pn_tables_zonal(t, 9, 0.5, z.as_mut_ptr(), 3) }, PN_ERR_RANGE);
+    assert_eq!(unsafe { pn_tables_zonal(t, 0, 0.5, z.as_mut_ptr(), 2) }, PN_ERR_SIZE);
+    let f: Vec<f32> = (0..9).map(|i| 0.1 * i as f32 - 0.3).collect();
+    let g: Vec<f32> = (0..9).map(|i| 0.5 - 0.05 * i as f32).collect();
+    let (mut fg, mut want) = ([0.0f32; 9], [0.0f32; 9]);
+    assert_eq!(unsafe { pn_tables_product(t, f.as_ptr(), g.as_ptr(), fg.as_mut_ptr(), 9) }, PN_OK);
+    tables.product(&f, &g, &mut want);
+    assert_eq!(fg, want);
+    let mut eta = [0.0f32; 2];
+    assert_eq!(unsafe { pn_tables_eta(t, eta.as_mut_ptr()) }, PN_OK);
+    assert_eq!(eta, [tables.eta_shadow(), tables.eta_indirect()]);
+
     // batches
     let flat = |v: &[[f32; 3]]| v.iter().flatten().copied().collect::<Vec<f32>>();
     let (pf, nf) = (flat(&pts), flat(&normals));
