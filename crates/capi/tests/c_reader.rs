@@ -230,3 +230,41 @@ fn c_reader_agrees_with_rust_under_mutation() {
     // Both outcomes must be exercised, or the loop tests nothing.
     assert!(accepted >= 20 && refused >= 2000, "{accepted} accepted, {refused} refused");
 }
+
+/// UTF-8 edge cases in a JSON section (rule 15, RFC 3629): both readers accept the valid
+/// sequences and refuse overlong forms, surrogates, code points above U+10FFFF and truncation.
+#[test]
+fn c_reader_agrees_with_rust_on_utf8_edge_cases() {
+    let Some(driver) = driver() else { return };
+    let cases: &[(&[u8], bool)] = &[
+        (b"\xF0\x9F\x98\x80", true),  // U+1F600
+        (b"\xED\x9F\xBF", true),      // U+D7FF, just below the surrogates
+        (b"\xEE\x80\x80", true),      // U+E000, just above
+        (b"\xF4\x8F\xBF\xBF", true),  // U+10FFFF
+        (b"\xC2\x80", true),          // U+0080
+        (b"\xC0\x80", false),         // overlong NUL
+        (b"\xE0\x80\x80", false),     // overlong
+        (b"\xF0\x80\x80\x80", false), // overlong
+        (b"\xED\xA0\x80", false),     // U+D800 surrogate
+        (b"\xF4\x90\x80\x80", false), // above U+10FFFF
+        (b"\xE2\x82", false),         // truncated at the end
+        (b"\x80", false),             // lone continuation byte
+        (b"\xFF", false),
+    ];
+    let mut names = Vec::new();
+    let mut inputs = Vec::new();
+    for (k, (seq, valid)) in cases.iter().enumerate() {
+        let text = format!("\"{}\"", "x".repeat(seq.len()));
+        let mut b = penumbra_asset::AssetBuilder::new(penumbra_asset::Kind::SHTB);
+        b.add_json("meta", "{}").unwrap().add_json("notes", &text).unwrap();
+        let mut bytes = b.to_bytes().unwrap();
+        let a = Asset::parse(&bytes).unwrap();
+        let at = a.section("notes").unwrap().info().offset() as usize + 1;
+        bytes[at..at + seq.len()].copy_from_slice(seq);
+        reseal_checksums(&mut bytes);
+        assert_eq!(Asset::parse(&bytes).is_ok(), *valid, "case {k}: the Rust loader");
+        names.push(format!("utf-8 case {k} {seq:02x?}"));
+        inputs.push(bytes);
+    }
+    compare(&driver, &names, &inputs);
+}
