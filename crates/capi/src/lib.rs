@@ -100,6 +100,12 @@ fn write_err(err: *mut c_char, err_len: usize, msg: &str) {
 
 pub(crate) type SetupResult<T> = Result<T, (i32, String)>;
 
+// The pointer helpers below are safe `fn`s that dereference raw pointers: they are
+// crate-private and only ever called by the `unsafe extern "C"` entry points with the pointers
+// the C caller passed, under each entry point's `# Safety` contract (valid for the stated
+// length, alive for the handle's lifetime). Keeping the one `unsafe` block in each helper,
+// rather than at ~100 call sites, keeps every unsafe operation in one reviewed place.
+
 /// The caller's asset bytes as a slice that lives as long as the handle made from it
 /// (`'static` here; the documented contract is that the caller keeps them alive).
 pub(crate) fn asset_bytes(data: *const u8, size: usize) -> SetupResult<&'static [u8]> {
