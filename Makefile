@@ -1,7 +1,7 @@
 # penumbra — see README.md. `make ci` is exactly what .ci/run does.
 CARGO ?= cargo
 
-.PHONY: build test lint fmt bench demo schemas fuzz ci deps-check
+.PHONY: build test lint fmt bench demo schemas fuzz fuzz-c ci deps-check c-examples
 
 build:
 	$(CARGO) build --release
@@ -24,6 +24,7 @@ bench:
 	$(CARGO) bench --bench shadows
 	$(CARGO) bench --bench fiv
 	$(CARGO) bench --bench mrt_level
+	$(CARGO) bench --bench capi
 
 # The README's first command: bake the demo config.
 demo:
@@ -37,6 +38,16 @@ schemas:
 # Fuzz the asset loader (needs cargo-fuzz; installs it). FUZZ_SECONDS=60 by default.
 fuzz:
 	bash fuzz/run.sh $${FUZZ_SECONDS:-60}
+
+# Fuzz the single-header C reader with libFuzzer (clang; installed from Debian's packages when
+# absent). FUZZ_SECONDS=60 by default. The differential mutation loop runs in `cargo test`.
+fuzz-c:
+	bash fuzz/run-c.sh $${FUZZ_SECONDS:-60}
+
+# The C/C++ examples (examples/c, examples/cpp) against the C ABI's static library, built with
+# the system compiler into target/c-examples/ (include/penumbra.h, include/penumbra_asset.h).
+c-examples:
+	bash .ci/c-examples.sh
 
 deps-check:
 	bash .ci/check-deps.sh

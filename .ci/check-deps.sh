@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Layering (DESIGN §1): penumbra-asset depends on nothing but bytemuck; penumbra-runtime
-# on penumbra-asset (and bytemuck) only. Checks normal (non-dev) dependencies.
+# on penumbra-asset (and bytemuck) only; penumbra-capi (the C ABI) on those two only.
+# Checks normal (non-dev) dependencies.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 fail=0
@@ -18,5 +19,6 @@ check() {
 }
 check penumbra-asset penumbra-asset bytemuck
 check penumbra-runtime penumbra-runtime penumbra-asset bytemuck
+check penumbra-capi penumbra-capi penumbra-runtime penumbra-asset bytemuck
 if [ "$fail" -ne 0 ]; then exit 1; fi
 echo "dependency layering ok"

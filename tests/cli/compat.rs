@@ -106,9 +106,32 @@ fn corpus_v1_still_loads() {
                 let l = penumbra_runtime::mrt::MrtLevel::from_asset(&a, &d).unwrap();
                 assert_eq!(l.shapes.len() as u64, meta["metrics"]["blocks"].as_u64().unwrap());
             }
+            "FIVT" => {
+                a.require_known(penumbra_runtime::fiv::FIVT_KNOWN).unwrap();
+                let t = penumbra_runtime::fiv::FivTable::from_asset(&a).unwrap();
+                let samples: Vec<usize> = meta["params"]["samples"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_u64().unwrap() as usize)
+                    .collect();
+                assert_eq!(t.samples().to_vec(), samples);
+                assert!((f64::from(t.radius()) - meta["frame"]["radius"].as_f64().unwrap()).abs() < 1e-6);
+                // Occlusion never exceeds what there is to occlude: on the shell just outside
+                // the ball, below the occluder, N·FIV ≤ the unoccluded irradiance.
+                let n = [0.0, 1.0, 0.0];
+                let tot = t.total_irradiance(n);
+                let fiv = t.occluded_fiv([0.0, -1.5 * t.radius(), 0.0]).expect("a sample outside the occluder");
+                for c in 0..3 {
+                    let occ = fiv[c][1];
+                    assert!(occ > 0.0 && occ <= tot[c] * 1.0001, "channel {c}: {occ} vs {}", tot[c]);
+                }
+            }
             other => panic!("no compatibility check for kind {other}"),
         }
         kinds.push(a.kind().as_str().to_string());
     }
-    assert!(kinds.contains(&"SHTB".to_string()), "corpus must hold an SHTB asset");
+    for kind in ["SHTB", "SPHR", "MRTD", "MRTL", "FIVT"] {
+        assert!(kinds.iter().any(|k| k == kind), "corpus must hold an {kind} asset");
+    }
 }

@@ -8,7 +8,7 @@ use penumbra_asset::{AssetBuilder, BuildError, Kind, write_file_atomic};
 use std::error::Error;
 use std::path::PathBuf;
 
-fn seeds() -> Result<Vec<(&'static str, AssetBuilder)>, BuildError> {
+pub fn seeds() -> Result<Vec<(&'static str, AssetBuilder)>, BuildError> {
     let mut minimal = AssetBuilder::new(Kind::SPHR);
     minimal.add_json("meta", "{}")?;
 

@@ -34,7 +34,11 @@ pub enum RuntimeExp {
 }
 
 /// A blocker sphere: centre and radius, in the receiver's world units.
+///
+/// `repr(C)` (16 bytes: x, y, z, r) so that the C ABI (`penumbra-capi`'s `pn_sphere`) passes
+/// the caller's sphere arrays through without copying.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C)]
 pub struct Sphere {
     /// Centre.
     pub center: [f32; 3],
