@@ -34,6 +34,7 @@ demo:
 schemas:
 	$(CARGO) run --release -- schema > schemas/bake-config.schema.json
 	$(CARGO) run --release -- schema --level > schemas/mrt-level.schema.json
+	$(CARGO) run --release -- schema --clutter > schemas/clutter.schema.json
 
 # Fuzz the asset loader (needs cargo-fuzz; installs it). FUZZ_SECONDS=60 by default.
 fuzz:

@@ -73,7 +73,7 @@ fn corpus_v1_still_loads() {
                     })
                     .collect();
                 let ifaces: Vec<(&str, usize)> = ifaces.iter().map(|(s, f)| (s.as_str(), *f)).collect();
-                let known = penumbra_transport::asset::section_names_v2(&names, &ifaces);
+                let known = penumbra_transport::asset::section_names_v3(&names, &ifaces);
                 let known: Vec<&str> = known.iter().map(String::as_str).collect();
                 a.require_known(&known).unwrap();
                 if !ifaces.is_empty() {
@@ -127,11 +127,44 @@ fn corpus_v1_still_loads() {
                     assert!(occ > 0.0 && occ <= tot[c] * 1.0001, "channel {c}: {occ} vs {}", tot[c]);
                 }
             }
+            "DRTO" => {
+                a.require_known(penumbra_transport::drt_asset::DRTO_SECTIONS).unwrap();
+                // its dictionary and level are in the corpus too (matched by CRC-32C); the
+                // runtime validates the operators against both and evaluates them
+                let find = |ext: &str, crc: &str| {
+                    std::fs::read_dir(dir)
+                        .unwrap()
+                        .map(|e| e.unwrap().path())
+                        .find(|p| {
+                            p.extension().is_some_and(|x| x == ext)
+                                && format!("{:08x}", penumbra_asset::crc32c(&std::fs::read(p).unwrap())) == crc
+                        })
+                        .unwrap_or_else(|| panic!("the DRTO's {ext} is in the corpus"))
+                };
+                let df = AssetFile::open(find("mrtd", meta["inputs"]["dictionary_crc32c"].as_str().unwrap())).unwrap();
+                let lf = AssetFile::open(find("mrtl", meta["inputs"]["level_crc32c"].as_str().unwrap())).unwrap();
+                let (da, la) = (df.asset(), lf.asset());
+                let d = penumbra_runtime::mrt::MrtDictionary::from_asset(&da).unwrap();
+                let l = penumbra_runtime::mrt::MrtLevel::from_asset(&la, &d).unwrap();
+                let ops = penumbra_runtime::drt::DrtOperators::from_asset(&a, &d, &l).unwrap();
+                assert_eq!(ops.clutter_texel_count() as u64, meta["metrics"]["clutter_texels"].as_u64().unwrap());
+                let mut mrt = penumbra_runtime::mrt::MrtRuntime::new(d, l);
+                let mut drt = penumbra_runtime::drt::DrtRuntime::new(ops, &mrt);
+                let n = mrt.texel_count();
+                let m = drt.operators().clutter_texel_count();
+                let (l_d, l_dc) = (vec![1.0f32; n], vec![1.0f32; m]);
+                let (mut s, mut c) = (vec![0.0f32; n], vec![0.0f32; m]);
+                let all = penumbra_runtime::drt::Paths::ALL;
+                drt.one_bounce(&mut mrt, &l_d, &l_dc, 0, 1.0, all, &mut s, &mut c);
+                // uniform unit direct light everywhere: finite, and the clutter receives light
+                assert!(s.iter().chain(&c).all(|v| v.is_finite()));
+                assert!(c.iter().sum::<f32>() > 0.0);
+            }
             other => panic!("no compatibility check for kind {other}"),
         }
         kinds.push(a.kind().as_str().to_string());
     }
-    for kind in ["SHTB", "SPHR", "MRTD", "MRTL", "FIVT"] {
+    for kind in ["SHTB", "SPHR", "MRTD", "MRTL", "FIVT", "DRTO"] {
         assert!(kinds.iter().any(|k| k == kind), "corpus must hold an {kind} asset");
     }
 }

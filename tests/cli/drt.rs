@@ -144,3 +144,12 @@ fn bad_drt_inputs_are_clean_errors_without_output() {
     // six box-projected charts of 4×4 texels (the mesh's largest extent / 4 = the face size / 4)
     assert_eq!(v["clutter_texels"], 6 * 16);
 }
+
+#[test]
+fn clutter_schema_is_committed_and_fresh() {
+    let (code, stdout, stderr) = run(penumbra().args(["schema", "--clutter"]));
+    assert_eq!(code, 0, "{stderr}");
+    let committed = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schemas/clutter.schema.json"))
+        .expect("schemas/clutter.schema.json (run `make schemas`)");
+    assert_eq!(stdout, committed, "schemas/clutter.schema.json is stale: run `make schemas`");
+}

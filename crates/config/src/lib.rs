@@ -15,7 +15,7 @@ mod validate;
 pub use error::{ConfigError, ConfigErrorKind};
 pub use level::{LevelFile, level_schema_json, load_level};
 pub use types::{
-    BakeConfig, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis,
+    BakeConfig, DrtStage, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis,
 };
 pub use validate::{Issue, validate};
 

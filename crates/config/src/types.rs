@@ -25,6 +25,10 @@ pub struct BakeConfig {
     /// MRT level operators (`penumbra mrt level`) with the `[mrt]` stage's dictionary.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mrt_level: Option<MrtLevelStage>,
+    /// DRT clutter operators (`penumbra drt`): the `[mrt]` dictionary with the `[mrt_level]`
+    /// level and a clutter file, or a built-in example scene.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drt: Option<DrtStage>,
 }
 
 impl BakeConfig {
@@ -36,6 +40,7 @@ impl BakeConfig {
             || !self.fiv.is_empty()
             || self.mrt.is_some()
             || self.mrt_level.is_some()
+            || self.drt.is_some()
     }
 }
 
@@ -328,6 +333,50 @@ pub struct MrtLevelStage {
     /// Output file name inside `output_dir` (default `level.mrtl`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
+}
+
+/// The `[drt]` stage: Delta Radiance Transfer clutter operators (MRT thesis ch. 5).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DrtStage {
+    /// Clutter file (TOML, schemas/clutter.schema.json), relative to this config; the level is
+    /// the `[mrt_level]` stage's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clutter: Option<String>,
+    /// A built-in scene instead (`pillars`, `cornell`, `maze-boxes`); it brings its own level.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub example: Option<String>,
+    /// Rays per texel, 16..=1048576 (default 1024).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rays: Option<u32>,
+    /// Receiving blocks within this many hops of clutter, 0..=16 (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub neighborhood: Option<u32>,
+    /// Rank of C_b and C_c, 1..=256 (default 5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kc: Option<u32>,
+    /// Rank of ΔU_c, 1..=4096 (default 32).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kdc: Option<u32>,
+    /// Texels per box-face edge, 2..=64 (default 16).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clutter_res: Option<u32>,
+    /// Charts per box-face edge, dividing clutter_res (default 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clutter_basis_res: Option<u32>,
+    /// Inpaint scene texels inside clutter (default true).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inpaint: Option<bool>,
+    /// Output file name inside `output_dir` (default `clutter.drto`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+}
+
+impl DrtStage {
+    /// The output file name.
+    pub fn output_name(&self) -> &str {
+        self.output.as_deref().unwrap_or("clutter.drto")
+    }
 }
 
 impl MrtLevelStage {

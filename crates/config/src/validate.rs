@@ -147,6 +147,9 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     if let Some(m) = &c.mrt {
         validate_mrt(m, &mut out);
     }
+    if let Some(d) = &c.drt {
+        validate_drt(d, c, &mut out);
+    }
     if let Some(l) = &c.mrt_level {
         validate_mrt_level(l, c.mrt.as_ref(), &mut out);
     }
@@ -224,6 +227,45 @@ fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     if let Some(o) = &m.output {
         if !plain_file_name(o) {
             out.push(issue("mrt.output", format!("{o:?} must be a plain file name (no directories)")));
+        }
+    }
+}
+
+fn validate_drt(d: &crate::types::DrtStage, c: &crate::types::BakeConfig, out: &mut Vec<Issue>) {
+    if c.mrt.is_none() {
+        out.push(issue("drt", "[drt] needs the [mrt] stage (its dictionary)"));
+    }
+    match (&d.clutter, &d.example) {
+        (Some(_), Some(_)) | (None, None) => out.push(issue("drt", "give exactly one of `clutter` or `example`")),
+        (Some(_), None) if c.mrt_level.is_none() => {
+            out.push(issue("drt.clutter", "[drt] with a clutter file needs the [mrt_level] stage (its level)"))
+        }
+        (None, Some(e)) if !["pillars", "cornell", "maze-boxes"].contains(&e.as_str()) => {
+            out.push(issue("drt.example", format!("{e:?} is not one of pillars, cornell, maze-boxes")))
+        }
+        _ => {}
+    }
+    for (key, v, lo, hi) in [
+        ("drt.rays", d.rays, 16, 1 << 20),
+        ("drt.neighborhood", d.neighborhood, 0, 16),
+        ("drt.kc", d.kc, 1, 256),
+        ("drt.kdc", d.kdc, 1, 4096),
+        ("drt.clutter_res", d.clutter_res, 2, 64),
+        ("drt.clutter_basis_res", d.clutter_basis_res, 1, 64),
+    ] {
+        if let Some(v) = v {
+            if !(lo..=hi).contains(&v) {
+                out.push(issue(key, format!("{v} is out of range (allowed: {lo}..={hi})")));
+            }
+        }
+    }
+    let (r, s) = (d.clutter_res.unwrap_or(16), d.clutter_basis_res.unwrap_or(2));
+    if s > 0 && r % s != 0 {
+        out.push(issue("drt.clutter_basis_res", format!("{s} must divide clutter_res {r}")));
+    }
+    if let Some(o) = &d.output {
+        if !plain_file_name(o) {
+            out.push(issue("drt.output", format!("{o:?} must be a plain file name (no directories)")));
         }
     }
 }

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// Stage names in execution order. Every configured entry of a stage is one work item;
 /// `--shard K/N` runs the items whose index (in this order) is K mod N.
-pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt", "mrt_level"];
+pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt", "mrt_level", "drt"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -282,6 +282,62 @@ fn run_mrt_level(cfg: &penumbra_config::LoadedConfig, out_dir: &Path, force: boo
     })
 }
 
+fn run_drt(
+    cfg: &penumbra_config::LoadedConfig,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    use super::drt::{DrtSceneArgs, bake_scene, cache_key, load_scene};
+    use super::mrt_level::LevelSource;
+    let (Some(d), Some(m)) = (&cfg.config.drt, &cfg.config.mrt) else {
+        return Err(CliError::internal(anyhow!("drt stage selected but not configured")));
+    };
+    let dict = out_dir.join(m.output_name());
+    let level = cfg.config.mrt_level.as_ref().map(|l| out_dir.join(l.output_name()));
+    for p in std::iter::once(&dict).chain(level.iter().filter(|_| d.example.is_none())) {
+        if !p.exists() {
+            return Err(CliError::input(anyhow!(
+                "{}: [drt] needs {} (bake the [mrt] and [mrt_level] stages first)",
+                cfg.path.display(),
+                p.display()
+            )));
+        }
+    }
+    let args = DrtSceneArgs {
+        dict,
+        level: if d.example.is_some() { None } else { level },
+        source: LevelSource { maze: None, seed: 0, corridor: None, l_turn: None },
+        example: d.example.clone(),
+        boxes: 100,
+        clutter: d.clutter.as_deref().map(|c| cfg.resolve(c)),
+        clutter_res: d.clutter_res.unwrap_or(16),
+        clutter_basis_res: d.clutter_basis_res.unwrap_or(2),
+    };
+    let sc = load_scene(&args)?;
+    let defaults = penumbra_transport::drt::DrtParams::default();
+    let params = penumbra_transport::drt::DrtParams {
+        rays: d.rays.map_or(defaults.rays, |v| v as usize),
+        neighborhood: d.neighborhood.map_or(defaults.neighborhood, |v| v as usize),
+        k_c: d.kc.map_or(defaults.k_c, |v| v as usize),
+        k_dc: d.kdc.map_or(defaults.k_dc, |v| v as usize),
+        inpaint: d.inpaint.unwrap_or(true),
+        clutter_res: args.clutter_res as usize,
+        clutter_basis_res: args.clutter_basis_res as usize,
+        ..defaults
+    };
+    let key = cache_key(&sc, &params);
+    let output = out_dir.join(d.output_name());
+    cached_or_bake("drt", "DRTO", &output, &key, force, || {
+        let start = Instant::now();
+        let (b, bytes) = bake_scene(&sc, &params, mode)?;
+        penumbra_asset::write_file_atomic(&output, &bytes)
+            .with_context(|| format!("cannot write {}", output.display()))?;
+        let metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+        Ok(Baked { bytes: bytes.len() as u64, seconds: start.elapsed().as_secs_f64(), metrics })
+    })
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
@@ -299,6 +355,9 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     }
     if cfg.config.mrt_level.is_some() {
         items.push(("mrt_level", 0));
+    }
+    if cfg.config.drt.is_some() {
+        items.push(("drt", 0));
     }
     let configured: Vec<&str> = STAGES.iter().copied().filter(|s| items.iter().any(|(n, _)| n == s)).collect();
     if let Some(only) = &a.only {
@@ -334,6 +393,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             "fiv" => run_fiv(&cfg, index, &out_dir, a.force, mode)?,
             "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
             "mrt_level" => run_mrt_level(&cfg, &out_dir, a.force)?,
+            "drt" => run_drt(&cfg, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {

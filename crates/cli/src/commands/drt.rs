@@ -306,6 +306,21 @@ pub struct DrtArgs {
     pub json: bool,
 }
 
+/// The content hash of everything that changes a DRT bake's bytes: tool version, dictionary
+/// and level-asset CRCs, the level, each clutter instance's description (meshes by BLAKE3)
+/// and the parameters.
+pub fn cache_key(sc: &DrtScene, params: &DrtParams) -> String {
+    let inputs = sc.inputs();
+    blake3::hash(
+        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "drt", "dict": sc.ops.crc32c, "level_asset": inputs.level_crc32c,
+               "level": inputs.level, "clutter": inputs.clutter_hashes, "params": params.to_json()})
+        .to_string()
+        .as_bytes(),
+    )
+    .to_hex()
+    .to_string()
+}
+
 /// Bakes the scene's operators; returns the bake and the asset bytes.
 pub fn bake_scene(
     sc: &DrtScene,
@@ -317,14 +332,7 @@ pub fn bake_scene(
         bake(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, &rep).map_err(|e| CliError::input(anyhow!("{e}")))?;
     rep.finish();
     let inputs = sc.inputs();
-    let key = blake3::hash(
-        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "drt", "dict": sc.ops.crc32c, "level": inputs.level,
-               "clutter": inputs.clutter_hashes, "params": params.to_json()})
-        .to_string()
-        .as_bytes(),
-    )
-    .to_hex()
-    .to_string();
+    let key = cache_key(sc, params);
     let asset = to_asset(&b, &sc.clutter, &inputs, Some(&key)).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
     Ok((b, bytes))
