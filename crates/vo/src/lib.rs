@@ -1,0 +1,8 @@
+//! # penumbra-vo: volumetric-obscurance sample sets (MRT thesis ch. 6)
+pub mod bake;
+pub mod quality;
+pub mod sets;
+pub mod voronoi;
+
+pub use bake::{Comparison, Quality, SampleSet, VoBake, VoError, VoParams, bake};
+pub use voronoi::Domain;
