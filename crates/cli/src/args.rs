@@ -36,6 +36,9 @@ pub enum Command {
     /// Bake FIV occlusion textures for an occluder under an environment (FIV §4.2);
     /// `penumbra fiv merge` joins shards.
     Fiv(FivArgs),
+    /// Volumetric-obscurance sample sets: electrostatic 1/d⁴ sets for line/area sampling of
+    /// the disk and point sampling of the ball, against Lloyd/Halton/Poisson (MRT thesis §6.3.5).
+    Vo(crate::commands::vo::VoArgs),
     /// Measure an asset's accuracy against the brute-force reference.
     Verify(VerifyArgs),
     /// Run one bake over a grid of its knobs and plot error against cost.

@@ -14,7 +14,7 @@ mod validate;
 pub use error::{ConfigError, ConfigErrorKind};
 pub use level::{LevelFile, level_schema_json, load_level};
 pub use types::{
-    BakeConfig, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis,
+    BakeConfig, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis, VoStage,
 };
 pub use validate::{Issue, validate};
 

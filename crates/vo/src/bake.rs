@@ -275,3 +275,138 @@ pub fn bake(p: &VoParams, progress: &dyn Progress) -> Result<VoBake, VoError> {
     let reflect3d = (0..s).map(|_| unit_vector(r.next_f64(), r.next_f64(), false)).collect();
     Ok(VoBake { sets, comparison, reflect2d, reflect3d })
 }
+
+/// How the electrostatic sets compare with one baseline over the rows `2 ≤ N ≤ max_n`
+/// (N = 1 is one cell whatever the method).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VersusBaseline {
+    /// Rows compared.
+    pub rows: usize,
+    /// Median of electrostatic / baseline cell CV (rows where the baseline's CV > 10⁻⁶).
+    pub cell_cv_ratio_median: f64,
+    /// Median of electrostatic / baseline noise.
+    pub noise_ratio_median: f64,
+    /// Rows where the electrostatic CV is at least 20 % lower (the DESIGN goal).
+    pub cell_cv_wins_20pct: usize,
+    /// Rows where the electrostatic noise is at least 20 % lower.
+    pub noise_wins_20pct: usize,
+    /// Rows where the electrostatic noise is lower at all.
+    pub noise_wins: usize,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
+}
+
+/// [`VersusBaseline`] for Lloyd, Halton and Poisson (in that order) over `2 ≤ N ≤ max_n`.
+pub fn versus(rows: &[Comparison], max_n: usize) -> [(&'static str, VersusBaseline); 3] {
+    type Pick = fn(&Comparison) -> Quality;
+    let pick: [(&'static str, Pick); 3] =
+        [("lloyd", |c| c.lloyd), ("halton", |c| c.halton), ("poisson", |c| c.poisson)];
+    pick.map(|(name, f)| {
+        let rs: Vec<&Comparison> = rows.iter().filter(|c| c.n >= 2 && c.n <= max_n).collect();
+        let cv: Vec<f64> =
+            rs.iter().filter(|c| f(c).cell_cv > 1e-6).map(|c| c.electrostatic.cell_cv / f(c).cell_cv).collect();
+        let no: Vec<f64> = rs.iter().map(|c| c.electrostatic.noise / f(c).noise).collect();
+        (
+            name,
+            VersusBaseline {
+                rows: rs.len(),
+                cell_cv_ratio_median: median(cv),
+                noise_ratio_median: median(no.clone()),
+                cell_cv_wins_20pct: rs.iter().filter(|c| c.electrostatic.cell_cv <= 0.8 * f(c).cell_cv).count(),
+                noise_wins_20pct: no.iter().filter(|&&r| r <= 0.8).count(),
+                noise_wins: no.iter().filter(|&&r| r < 1.0).count(),
+            },
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use penumbra_math::progress::NoProgress;
+
+    fn small() -> VoParams {
+        VoParams {
+            counts: vec![1, 4, 6],
+            starts: 4,
+            rounds: 4,
+            steps: 10,
+            lloyd_iterations: 5,
+            adapt_res: [32, 16],
+            opt_res: [64, 16],
+            res: [128, 32],
+            noise_trials: 256,
+            ..VoParams::default()
+        }
+    }
+
+    #[test]
+    fn bake_is_deterministic_and_thread_independent() {
+        let p = small();
+        let a = bake(&p, &NoProgress).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let b = pool.install(|| bake(&p, &NoProgress).unwrap());
+        assert_eq!(a, b);
+        assert_eq!(a.sets.len(), 12);
+        for s in &a.sets {
+            assert!((s.weights.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!(s.points.iter().all(|q| q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < 1.0));
+            if s.centre {
+                assert_eq!(s.points[0], [0.0; 3]);
+            }
+            if s.domain == Domain::Disk {
+                assert!(s.points.iter().all(|q| q[2] == 0.0));
+            }
+            // log2area = log2 of the unweighted area fractions, which sum to 1
+            let a: f64 = s.log2area.iter().map(|l| l.exp2()).sum();
+            assert!((a - 1.0).abs() < 1e-9);
+        }
+        // one sample: the whole domain, log2area 0
+        assert_eq!(a.sets[0].weights, vec![1.0]);
+        assert_eq!(a.sets[0].log2area, vec![0.0]);
+        // four samples in the ball: the electrostatic set is (close to) a regular tetrahedron,
+        // four equal cells
+        let t = a.sets.iter().find(|s| s.domain == Domain::Ball && !s.centre && s.points.len() == 4).unwrap();
+        assert!(t.quality.cell_cv < 0.02, "{}", t.quality.cell_cv);
+        assert_eq!(a.reflect2d.len(), 16);
+        assert!(a.reflect3d.iter().all(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] - 1.0).abs() < 1e-12));
+    }
+
+    #[test]
+    fn bad_parameters_name_the_range() {
+        let mut p = small();
+        p.counts = vec![0, 3];
+        assert!(p.validate().unwrap_err().to_string().contains("counts"));
+        let mut p = small();
+        p.res = [100, 32];
+        assert!(p.validate().unwrap_err().to_string().contains("power of two"));
+        let mut p = small();
+        p.counts = vec![3, 3];
+        assert!(p.validate().is_err());
+    }
+
+    #[test]
+    fn asset_round_trip() {
+        let b = bake(&small(), &NoProgress).unwrap();
+        let bytes = crate::asset::to_asset(&b, serde_json::json!({}), Some("k")).unwrap().to_bytes().unwrap();
+        let a = penumbra_asset::Asset::parse(&bytes).unwrap();
+        assert_eq!(a.kind(), penumbra_asset::Kind::VOSS);
+        let names = crate::asset::section_names(&[1, 4, 6]);
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        a.require_known(&names).unwrap();
+        assert_eq!(a.sections().len(), names.len());
+        for s in &b.sets {
+            let r = crate::asset::read_set(&a, s.domain, s.centre, s.points.len()).unwrap().unwrap();
+            assert!(s.matches(&r));
+        }
+        assert!(crate::asset::read_set(&a, Domain::Ball, true, 5).unwrap().is_none());
+        assert_eq!(crate::asset::read_reflections(&a, Domain::Ball).unwrap().len(), 16);
+    }
+}

@@ -1,4 +1,5 @@
 //! # penumbra-vo: volumetric-obscurance sample sets (MRT thesis ch. 6)
+pub mod asset;
 pub mod bake;
 pub mod quality;
 pub mod sets;

@@ -11,6 +11,7 @@ pub mod tables;
 pub mod verify_fiv;
 pub mod verify_mrt;
 pub mod verify_shadows;
+pub mod vo;
 
 use crate::args::{Cli, Command};
 use crate::exit::{CliError, ExitCode};
@@ -28,6 +29,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Inspect(a) => inspect::run(&a),
         Command::Bake(a) => bake::run(&a, cli.progress),
         Command::Fiv(a) => fiv::run(&a, cli.progress),
+        Command::Vo(a) => vo::run(&a, cli.progress),
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
