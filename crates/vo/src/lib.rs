@@ -1,6 +1,7 @@
 //! # penumbra-vo: volumetric-obscurance sample sets (MRT thesis ch. 6)
 pub mod asset;
 pub mod bake;
+pub mod estimator;
 pub mod quality;
 pub mod sets;
 pub mod voronoi;
