@@ -330,6 +330,9 @@ pub enum VerifyCommand {
     /// MRT runtime (dictionary + level operators) against a path tracer on the same blocks:
     /// relative error of indirect light, one bounce and multi-bounce (MRT thesis §3.6).
     Mrt(crate::commands::verify_mrt::VerifyMrtArgs),
+    /// Volumetric-obscurance estimators (lines, area, points; MRT thesis §6.3) on a ray-cast
+    /// depth buffer against the obscurance integral over the mesh and over the height field.
+    Vo(crate::commands::verify_vo::VerifyVoArgs),
 }
 
 /// Partial-occluder handling at run time (FIV §4.3.1).

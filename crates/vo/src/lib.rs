@@ -3,6 +3,7 @@ pub mod asset;
 pub mod bake;
 pub mod estimator;
 pub mod quality;
+pub mod reference;
 pub mod sets;
 pub mod voronoi;
 

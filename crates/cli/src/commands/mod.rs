@@ -11,6 +11,7 @@ pub mod tables;
 pub mod verify_fiv;
 pub mod verify_mrt;
 pub mod verify_shadows;
+pub mod verify_vo;
 pub mod vo;
 
 use crate::args::{Cli, Command};
@@ -34,6 +35,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
             crate::args::VerifyCommand::Mrt(v) => verify_mrt::run(&v, cli.progress),
+            crate::args::VerifyCommand::Vo(v) => verify_vo::run(&v),
         },
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
