@@ -115,6 +115,14 @@ fn verify_vo_on_a_box_face_is_a_half_and_with_the_normal_one() {
     assert!(v["noise"].as_f64().unwrap() < 0.02);
     assert!((v["mean_volume"].as_f64().unwrap() - 0.5).abs() < 0.03);
     assert!(std::fs::metadata(&img).unwrap().len() > 100);
+    // the same from a perspective camera: the face is still half free
+    let (code, stdout, stderr) =
+        run(penumbra().args(base).arg("--mesh").arg(&mesh).args(["--method", "lines:9", "--perspective"]));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["perspective"], true);
+    assert!((v["mean_volume"].as_f64().unwrap() - 0.5).abs() < 0.05, "{v}");
+    assert!((v["mean_estimate"].as_f64().unwrap() - v["mean_heightfield"].as_f64().unwrap()).abs() < 0.05, "{v}");
     let (code, stdout, stderr) =
         run(penumbra().args(base).arg("--mesh").arg(&mesh).args(["--method", "points:12", "--normal"]));
     assert_eq!(code, 0, "{stderr}");

@@ -9,16 +9,23 @@
 use crate::quality::{line_free, reflect};
 
 /// A depth buffer with per-pixel view-space normals (facing the camera, `n_z < 0`).
+///
+/// Orthographic: pixel `(i, j)` is the view-space line `(x, y) = origin + (i, j)·pixel`.
+/// Perspective (camera at the view origin): the pixel is the ray of slopes
+/// `(X/Z, Y/Z) = origin + (i, j)·pixel`; depths are view-space `Z`. The estimators project each
+/// line sample at the depth of the pixel being shaded (as a screen-space shader does).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DepthBuffer {
     /// Width in pixels.
     pub width: usize,
     /// Height in pixels.
     pub height: usize,
-    /// Pixel edge in world units.
+    /// Pixel edge: world units (orthographic) or slope units (perspective).
     pub pixel: f64,
-    /// View-plane coordinates of pixel (0, 0)'s centre.
+    /// Image-plane coordinates of pixel (0, 0)'s centre.
     pub origin: [f64; 2],
+    /// Perspective projection (see above).
+    pub perspective: bool,
     /// Depth per pixel, row-major; `f64::INFINITY` where nothing was hit.
     pub depth: Vec<f64>,
     /// Unit normal per pixel in view coordinates (zero where nothing was hit).
@@ -46,18 +53,31 @@ impl DepthBuffer {
                 }
             }
         }
-        DepthBuffer { width, height, pixel, origin, depth, normal }
+        DepthBuffer { width, height, pixel, origin, depth, normal, perspective: false }
     }
 
-    /// View-plane position of a pixel centre.
+    /// View-space `(x, y)` of a pixel's surface point (perspective: at its depth).
     pub fn position(&self, i: usize, j: usize) -> [f64; 2] {
-        [self.origin[0] + i as f64 * self.pixel, self.origin[1] + j as f64 * self.pixel]
+        let a = [self.origin[0] + i as f64 * self.pixel, self.origin[1] + j as f64 * self.pixel];
+        if self.perspective {
+            let z = self.depth[j * self.width + i];
+            [a[0] * z, a[1] * z]
+        } else {
+            a
+        }
     }
 
-    /// Depth at view-plane `(x, y)`: the nearest pixel's (point sampling of the z-buffer, as a
-    /// GPU's unfiltered fetch); infinity outside the buffer.
+    /// Image-plane coordinates of view-space `(x, y)` projected at depth `z`.
     #[inline]
-    pub fn depth_at(&self, x: f64, y: f64) -> f64 {
+    fn project(&self, x: f64, y: f64, z: f64) -> (f64, f64) {
+        if self.perspective { (x / z, y / z) } else { (x, y) }
+    }
+
+    /// Depth of the pixel that view-space `(x, y, z)` projects to: the nearest pixel's (point
+    /// sampling of the z-buffer, as a GPU's unfiltered fetch); infinity outside the buffer.
+    #[inline]
+    pub fn depth_at(&self, x: f64, y: f64, z: f64) -> f64 {
+        let (x, y) = self.project(x, y, z);
         let fi = ((x - self.origin[0]) / self.pixel).round();
         let fj = ((y - self.origin[1]) / self.pixel).round();
         if fi < 0.0 || fj < 0.0 || fi >= self.width as f64 || fj >= self.height as f64 {
@@ -71,6 +91,8 @@ impl DepthBuffer {
     /// side), over the pixels of the axis-aligned square of edge `side` centred at `(x, y)`:
     /// the first two moments a mip level of `z` and `z²` holds (§6.3.2), computed exactly.
     pub fn moments(&self, x: f64, y: f64, side: f64, z0: f64, r: f64) -> (f64, f64) {
+        let (x, y) = self.project(x, y, z0);
+        let side = if self.perspective { side / z0 } else { side };
         let half = 0.5 * side / self.pixel;
         let ci = (x - self.origin[0]) / self.pixel;
         let cj = (y - self.origin[1]) / self.pixel;
@@ -196,7 +218,7 @@ pub fn estimate(
                 let hemi = line_free(z_s, zp);
                 let f = match method {
                     Method::Lines => {
-                        let dr = (db.depth_at(x, y) - z0) / r;
+                        let dr = (db.depth_at(x, y, z0) - z0) / r;
                         thick_free(z_s, dr.min(zp), o.thickness).min(hemi)
                     }
                     _ => {
@@ -223,8 +245,8 @@ pub fn estimate(
                         q = [q[0] - 2.0 * d * n[0], q[1] - 2.0 * d * n[1], q[2] - 2.0 * d * n[2]];
                     }
                 }
-                let d = db.depth_at(x0 + r * q[0], y0 + r * q[1]);
                 let z = z0 + r * q[2];
+                let d = db.depth_at(x0 + r * q[0], y0 + r * q[1], z);
                 let occupied = match o.thickness {
                     None => z > d,
                     Some(t) => z > d && z < d + t * r,

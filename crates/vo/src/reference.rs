@@ -45,9 +45,17 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Ray-casts a `res × res` orthographic depth buffer of the mesh (square, 5 % margin around
-/// its bounding box's projection). Depth is measured from a plane in front of the mesh.
-pub fn ray_cast(mesh: &TriMesh, bvh: &MeshBvh, view: View, res: usize) -> Option<(DepthBuffer, Frame)> {
+/// Ray-casts a `res × res` depth buffer of the mesh. Orthographic: a square with a 5 % margin
+/// around its bounding box's projection, depth measured from a plane in front of the mesh.
+/// Perspective: the camera two bounding-box diagonals from the box centre, the field of view
+/// just covering the box's bounding sphere (5 % margin), depth = view-space Z.
+pub fn ray_cast(
+    mesh: &TriMesh,
+    bvh: &MeshBvh,
+    view: View,
+    res: usize,
+    perspective: bool,
+) -> Option<(DepthBuffer, Frame)> {
     let b = mesh.bounds()?;
     let c = b.center();
     let axes = match view {
@@ -58,8 +66,13 @@ pub fn ray_cast(mesh: &TriMesh, bvh: &MeshBvh, view: View, res: usize) -> Option
     let diag = b.diagonal().max(1e-12);
     let ext = b.extent();
     let span = 1.05 * (0..2).map(|a| (0..3).map(|k| (ext[k] * axes[a][k]).abs()).sum::<f64>()).fold(0.0, f64::max);
-    let pixel = span.max(1e-12) / res as f64;
-    let origin = [0, 1, 2].map(|k| c[k] - diag * axes[2][k]);
+    let dist = 2.0 * diag;
+    let pixel = if perspective {
+        2.0 * (0.5 * 1.05 * diag) / (dist - 0.5 * diag) / res as f64
+    } else {
+        span.max(1e-12) / res as f64
+    };
+    let origin = [0, 1, 2].map(|k| c[k] - if perspective { dist } else { diag } * axes[2][k]);
     let frame = Frame { axes, origin };
     let o2 = [-(res as f64 - 1.0) * 0.5 * pixel; 2];
     let rows: Vec<Vec<(f64, [f64; 3])>> = (0..res)
@@ -68,8 +81,14 @@ pub fn ray_cast(mesh: &TriMesh, bvh: &MeshBvh, view: View, res: usize) -> Option
             (0..res)
                 .map(|i| {
                     let (x, y) = (o2[0] + i as f64 * pixel, o2[1] + j as f64 * pixel);
-                    let from = frame.world([x, y, 0.0]);
-                    match bvh.closest_hit(&Ray::new(from, axes[2])) {
+                    let (from, dir, zscale) = if perspective {
+                        let d = [0, 1, 2].map(|k| axes[2][k] + x * axes[0][k] + y * axes[1][k]);
+                        let l = dot(d, d).sqrt();
+                        (frame.origin, d.map(|v| v / l), 1.0 / l)
+                    } else {
+                        (frame.world([x, y, 0.0]), axes[2], 1.0)
+                    };
+                    match bvh.closest_hit(&Ray::new(from, dir)) {
                         Some(h) => {
                             let cr = mesh.triangle_cross(h.triangle as usize);
                             let l = dot(cr, cr).sqrt().max(1e-300);
@@ -77,7 +96,7 @@ pub fn ray_cast(mesh: &TriMesh, bvh: &MeshBvh, view: View, res: usize) -> Option
                             if n[2] > 0.0 {
                                 n = n.map(|v| -v);
                             }
-                            (h.t, n)
+                            (h.t * zscale, n)
                         }
                         None => (f64::INFINITY, [0.0; 3]),
                     }
@@ -86,7 +105,7 @@ pub fn ray_cast(mesh: &TriMesh, bvh: &MeshBvh, view: View, res: usize) -> Option
         })
         .collect();
     let (depth, normal) = rows.into_iter().flatten().unzip();
-    Some((DepthBuffer { width: res, height: res, pixel, origin: o2, depth, normal }, frame))
+    Some((DepthBuffer { width: res, height: res, pixel, origin: o2, depth, normal, perspective }, frame))
 }
 
 /// Knobs of a verification.
@@ -162,7 +181,7 @@ pub fn truths(
         }
         let v = [x0 + o.radius * q[0], y0 + o.radius * q[1], z0 + o.radius * q[2]];
         fv += usize::from(!wn.is_inside(frame.world(v)));
-        fh += usize::from(v[2] <= db.depth_at(v[0], v[1]));
+        fh += usize::from(v[2] <= db.depth_at(v[0], v[1], v[2]));
     }
     Some((fv as f64 / m as f64, fh as f64 / m as f64))
 }
@@ -242,7 +261,7 @@ mod tests {
     fn box_face_truths_are_a_half_and_the_cast_depths_are_exact() {
         let m = cube([-1.0; 3], [1.0; 3]);
         let bvh = MeshBvh::build(&m).unwrap();
-        let (db, frame) = ray_cast(&m, &bvh, View::Front, 64).unwrap();
+        let (db, frame) = ray_cast(&m, &bvh, View::Front, 64, false).unwrap();
         let wn = WindingNumber::new(&m);
         // every covered pixel sees the +Z face at the same depth
         let d: Vec<f64> = db.depth.iter().copied().filter(|d| d.is_finite()).collect();
@@ -259,6 +278,25 @@ mod tests {
         let on = Options { normal_clamp: true, ..o };
         let (tv, th) = truths(&db, &frame, &wn, c, c, &on, 1000, 1).unwrap();
         assert!(tv > 0.999 && th > 0.999, "{tv} {th}");
+        // perspective: the +Z face is the plane Z = const in view space; its points sit on
+        // their pixels' rays, and the same truths and line estimate hold at the centre
+        let (dp, fp) = ray_cast(&m, &bvh, View::Front, 64, true).unwrap();
+        let c = 32;
+        let z = dp.depth[c * 64 + c];
+        let [x, y] = dp.position(c, c);
+        let w = fp.world([x, y, z]);
+        assert!((w[2] - 1.0).abs() < 1e-9, "{w:?}");
+        let covered = dp.depth.iter().filter(|d| d.is_finite()).count();
+        assert!(covered > 100 && covered < 64 * 64);
+        let (tv, th) = truths(&dp, &fp, &wn, c, c, &o, 4000, 1).unwrap();
+        assert!((tv - 0.5).abs() < 0.03 && (th - 0.5).abs() < 0.03, "{tv} {th}");
+        let pts = crate::sets::halton(crate::Domain::Disk, 16, false);
+        let g = crate::voronoi::Grid::new(crate::Domain::Disk, 128);
+        let cells = g.cells(&pts);
+        let l: Vec<f64> = cells.area.iter().map(|a| a.log2()).collect();
+        let set = SetRef { points: &pts, weights: &cells.mass, log2area: &l };
+        let e = estimate(&dp, c, c, Method::Lines, set, [1.0, 0.0, 0.0], &o).unwrap();
+        assert!((e - 0.5).abs() < 1e-9, "{e}");
     }
 
     #[test]
@@ -268,7 +306,7 @@ mod tests {
         // 1 − (cap(0) − cap(0.2)), the height-field truth ½
         let m = cube([-2.0, -2.0, -0.1], [2.0, 2.0, 0.0]);
         let bvh = MeshBvh::build(&m).unwrap();
-        let (db, frame) = ray_cast(&m, &bvh, View::Front, 64).unwrap();
+        let (db, frame) = ray_cast(&m, &bvh, View::Front, 64, false).unwrap();
         let wn = WindingNumber::new(&m);
         let o = Options { radius: 0.5, normal_clamp: false, thickness: None };
         let c = db.width / 2;

@@ -46,6 +46,9 @@ pub struct VerifyVoArgs {
     /// Orthographic view direction.
     #[arg(long, value_enum, default_value_t = ViewArg::Front)]
     pub view: ViewArg,
+    /// Perspective camera (two bounding-box diagonals away) instead of orthographic.
+    #[arg(long)]
+    pub perspective: bool,
     /// Depth-buffer resolution (square).
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=4096))]
     pub res: u32,
@@ -154,7 +157,7 @@ pub fn run(a: &VerifyVoArgs) -> Result<ExitCode, CliError> {
         ViewArg::Side => View::Side,
         ViewArg::Top => View::Top,
     };
-    let (db, frame) = ray_cast(&mesh, &bvh, view, a.res as usize)
+    let (db, frame) = ray_cast(&mesh, &bvh, view, a.res as usize, a.perspective)
         .ok_or_else(|| CliError::input(anyhow!("{}: empty mesh", a.mesh.display())))?;
     let wn = WindingNumber::new(&mesh);
     let diag = mesh.bounds().map_or(1.0, |b| b.diagonal());
@@ -185,6 +188,7 @@ pub fn run(a: &VerifyVoArgs) -> Result<ExitCode, CliError> {
         o.insert("centre".into(), json!(a.centre));
         o.insert("radius".into(), json!(options.radius));
         o.insert("normal".into(), json!(a.normal));
+        o.insert("perspective".into(), json!(a.perspective));
         o.insert("mesh".into(), json!(a.mesh.display().to_string()));
         o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
     }
