@@ -12,7 +12,7 @@
 //!   truth `(1 − h)²(2 + h)/4`);
 //! - [`bake()`]: every (domain, centre, N) set, its weights, `log₂` area fractions and the
 //!   comparison table; [`asset`]: the `VOSS` asset (schemas/asset-format.md);
-//! - [`estimator`](crate::estimator): the line (§6.3.1), area (§6.3.2), thickness (§6.3.3) and normal-clamped
+//! - [`estimator`]: the line (§6.3.1), area (§6.3.2), thickness (§6.3.3) and normal-clamped
 //!   (§6.3.4) estimators over depth buffers; [`reference`](mod@crate::reference): ray-cast depth buffers and the
 //!   Monte-Carlo truths against the mesh (winding number) and against the height field.
 //!
