@@ -160,11 +160,37 @@ fn corpus_v1_still_loads() {
                 assert!(s.iter().chain(&c).all(|v| v.is_finite()));
                 assert!(c.iter().sum::<f32>() > 0.0);
             }
+            "VOSS" => {
+                // every set of meta.counts reads back; weights sum to 1; samples inside the
+                // domain; centre sets start at the origin; reflections are unit vectors
+                use penumbra_vo::Domain;
+                let counts: Vec<usize> =
+                    meta["counts"].as_array().unwrap().iter().map(|c| c.as_u64().unwrap() as usize).collect();
+                let known = penumbra_vo::asset::section_names(&counts);
+                let known: Vec<&str> = known.iter().map(String::as_str).collect();
+                a.require_known(&known).unwrap();
+                for (domain, centre) in penumbra_vo::bake::FAMILIES {
+                    for &n in &counts {
+                        let s = penumbra_vo::asset::read_set(&a, domain, centre, n).unwrap().unwrap();
+                        assert_eq!(s.points.len(), n);
+                        assert!((s.weights.iter().sum::<f64>() - 1.0).abs() < 1e-5);
+                        assert!(s.points.iter().all(|p| p.iter().map(|x| x * x).sum::<f64>() < 1.0));
+                        if centre {
+                            assert_eq!(s.points[0], [0.0; 3]);
+                        }
+                    }
+                }
+                for d in [Domain::Disk, Domain::Ball] {
+                    for r in penumbra_vo::asset::read_reflections(&a, d).unwrap() {
+                        assert!((r.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-5);
+                    }
+                }
+            }
             other => panic!("no compatibility check for kind {other}"),
         }
         kinds.push(a.kind().as_str().to_string());
     }
-    for kind in ["SHTB", "SPHR", "MRTD", "MRTL", "FIVT", "DRTO"] {
+    for kind in ["SHTB", "SPHR", "MRTD", "MRTL", "FIVT", "DRTO", "VOSS"] {
         assert!(kinds.iter().any(|k| k == kind), "corpus must hold an {kind} asset");
     }
 }

@@ -14,6 +14,7 @@ mod shadows;
 mod spheres;
 mod tables;
 mod verify_shadows;
+mod vo;
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};

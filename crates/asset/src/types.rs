@@ -109,9 +109,11 @@ impl Kind {
     pub const MRTL: Kind = Kind(*b"MRTL");
     /// DRT clutter operators (`penumbra drt`).
     pub const DRTO: Kind = Kind(*b"DRTO");
+    /// Volumetric-obscurance sample sets (`penumbra vo`).
+    pub const VOSS: Kind = Kind(*b"VOSS");
 
     /// The kinds this version of the toolchain writes.
-    pub const KNOWN: [Kind; 6] = [Kind::SHTB, Kind::SPHR, Kind::FIVT, Kind::MRTD, Kind::MRTL, Kind::DRTO];
+    pub const KNOWN: [Kind; 7] = [Kind::SHTB, Kind::SPHR, Kind::FIVT, Kind::MRTD, Kind::MRTL, Kind::DRTO, Kind::VOSS];
 
     /// A kind from its 4 bytes, or `None` unless every byte is in `[A-Z0-9]`.
     pub const fn new(bytes: [u8; 4]) -> Option<Kind> {

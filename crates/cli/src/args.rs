@@ -38,6 +38,9 @@ pub enum Command {
     Fiv(FivArgs),
     /// Bake Delta Radiance Transfer clutter operators for a level (MRT thesis ch. 5).
     Drt(crate::commands::drt::DrtArgs),
+    /// Volumetric-obscurance sample sets: electrostatic 1/d⁴ sets for line/area sampling of
+    /// the disk and point sampling of the ball, against Lloyd/Halton/Poisson (MRT thesis §6.3.5).
+    Vo(crate::commands::vo::VoArgs),
     /// Measure an asset's accuracy against the brute-force reference.
     Verify(VerifyArgs),
     /// Run one bake over a grid of its knobs and plot error against cost.
@@ -335,6 +338,9 @@ pub enum VerifyCommand {
     /// MRT and MRT + DRT on a level with clutter against a path tracer that sees the clutter
     /// (MRT thesis ch. 5): indirect shadows and interreflections, scene and clutter.
     Drt(crate::commands::verify_drt::VerifyDrtArgs),
+    /// Volumetric-obscurance estimators (lines, area, points; MRT thesis §6.3) on a ray-cast
+    /// depth buffer against the obscurance integral over the mesh and over the height field.
+    Vo(crate::commands::verify_vo::VerifyVoArgs),
 }
 
 /// Partial-occluder handling at run time (FIV §4.3.1).

@@ -15,7 +15,8 @@ mod validate;
 pub use error::{ConfigError, ConfigErrorKind};
 pub use level::{LevelFile, level_schema_json, load_level};
 pub use types::{
-    BakeConfig, DrtStage, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage, UpAxis,
+    BakeConfig, DrtStage, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage,
+    UpAxis, VoStage,
 };
 pub use validate::{Issue, validate};
 

@@ -29,6 +29,9 @@ pub struct BakeConfig {
     /// level and a clutter file, or a built-in example scene.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drt: Option<DrtStage>,
+    /// Volumetric-obscurance sample sets (`penumbra vo`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vo: Option<VoStage>,
 }
 
 impl BakeConfig {
@@ -41,6 +44,7 @@ impl BakeConfig {
             || self.mrt.is_some()
             || self.mrt_level.is_some()
             || self.drt.is_some()
+            || self.vo.is_some()
     }
 }
 
@@ -383,5 +387,34 @@ impl MrtLevelStage {
     /// The output file name.
     pub fn output_name(&self) -> &str {
         self.output.as_deref().unwrap_or("level.mrtl")
+    }
+}
+
+/// The `[vo]` stage: volumetric-obscurance sample sets for line/area sampling of the disk and
+/// point sampling of the ball, with and without the centre sample (MRT thesis §6.3.5).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct VoStage {
+    /// Sample counts N, strictly increasing, each 1..=256 (default 1, 2, …, 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub counts: Option<Vec<u32>>,
+    /// Seed of every random draw (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Poisson starting sets per electrostatic set, 1..=1000 (default 24).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub starts: Option<u32>,
+    /// Random half-spaces per noise measurement, 1..=1000000 (default 4096).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_trials: Option<u32>,
+    /// Output file name inside `output_dir` (default `sets.voss`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+}
+
+impl VoStage {
+    /// The output file name.
+    pub fn output_name(&self) -> &str {
+        self.output.as_deref().unwrap_or("sets.voss")
     }
 }

@@ -153,10 +153,13 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     if let Some(l) = &c.mrt_level {
         validate_mrt_level(l, c.mrt.as_ref(), &mut out);
     }
+    if let Some(v) = &c.vo {
+        validate_vo(v, &mut out);
+    }
     if !c.has_stage() {
         out.push(issue(
             "stages",
-            "the config names no stage to bake (add a stage table such as [tables], [[spheres]], [[fiv]] or [mrt])",
+            "the config names no stage to bake (add a stage table such as [tables], [[spheres]], [[fiv]], [mrt] or [vo])",
         ));
     }
     out
@@ -296,6 +299,28 @@ fn validate_mrt_level(l: &crate::types::MrtLevelStage, mrt: Option<&crate::types
     if let Some(o) = &l.output {
         if !plain_file_name(o) {
             out.push(issue("mrt_level.output", format!("{o:?} must be a plain file name (no directories)")));
+        }
+    }
+}
+
+fn validate_vo(v: &crate::types::VoStage, out: &mut Vec<Issue>) {
+    if let Some(c) = &v.counts {
+        if c.is_empty() || c.iter().any(|&n| !(1..=256).contains(&n)) {
+            out.push(issue("vo.counts", format!("{c:?} is out of range (allowed: a non-empty list of 1..=256)")));
+        } else if c.windows(2).any(|w| w[0] >= w[1]) {
+            out.push(issue("vo.counts", format!("{c:?} must be strictly increasing")));
+        }
+    }
+    for (key, x, lo, hi) in [("vo.starts", v.starts, 1, 1000), ("vo.noise_trials", v.noise_trials, 1, 1_000_000)] {
+        if let Some(x) = x {
+            if !(lo..=hi).contains(&x) {
+                out.push(issue(key, format!("{x} is out of range (allowed: {lo}..={hi})")));
+            }
+        }
+    }
+    if let Some(o) = &v.output {
+        if !plain_file_name(o) {
+            out.push(issue("vo.output", format!("{o:?} must be a plain file name (no directories)")));
         }
     }
 }

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// Stage names in execution order. Every configured entry of a stage is one work item;
 /// `--shard K/N` runs the items whose index (in this order) is K mod N.
-pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt", "mrt_level", "drt"];
+pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt", "mrt_level", "drt", "vo"];
 
 /// Parses `K/N` (0 ≤ K < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
@@ -338,6 +338,32 @@ fn run_drt(
     })
 }
 
+fn run_vo(
+    cfg: &penumbra_config::LoadedConfig,
+    out_dir: &Path,
+    force: bool,
+    mode: ProgressMode,
+) -> Result<StageReport, CliError> {
+    let Some(v) = &cfg.config.vo else {
+        return Err(CliError::internal(anyhow!("vo stage selected but not configured")));
+    };
+    let d = penumbra_vo::VoParams::default();
+    let p = penumbra_vo::VoParams {
+        counts: v.counts.as_ref().map_or(d.counts.clone(), |c| c.iter().map(|&n| n as usize).collect()),
+        seed: v.seed.unwrap_or(d.seed),
+        starts: v.starts.map_or(d.starts, |s| s as usize),
+        noise_trials: v.noise_trials.map_or(d.noise_trials, |s| s as usize),
+        ..d
+    };
+    let output = out_dir.join(v.output_name());
+    let key = super::vo::cache_key(&p);
+    cached_or_bake("vo", "VOSS", &output, &key, force, || {
+        let o = super::vo::bake_to(&p, &output, mode, Some(key.clone()))?;
+        let seconds = o.report["seconds"].as_f64().unwrap_or(0.0);
+        Ok(Baked { bytes: o.bytes, seconds, metrics: o.report })
+    })
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
@@ -358,6 +384,9 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     }
     if cfg.config.drt.is_some() {
         items.push(("drt", 0));
+    }
+    if cfg.config.vo.is_some() {
+        items.push(("vo", 0));
     }
     let configured: Vec<&str> = STAGES.iter().copied().filter(|s| items.iter().any(|(n, _)| n == s)).collect();
     if let Some(only) = &a.only {
@@ -394,6 +423,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
             "mrt_level" => run_mrt_level(&cfg, &out_dir, a.force)?,
             "drt" => run_drt(&cfg, &out_dir, a.force, mode)?,
+            "vo" => run_vo(&cfg, &out_dir, a.force, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {

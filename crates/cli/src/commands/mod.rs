@@ -13,6 +13,8 @@ pub mod verify_drt;
 pub mod verify_fiv;
 pub mod verify_mrt;
 pub mod verify_shadows;
+pub mod verify_vo;
+pub mod vo;
 
 use crate::args::{Cli, Command};
 use crate::exit::{CliError, ExitCode};
@@ -31,11 +33,13 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Bake(a) => bake::run(&a, cli.progress),
         Command::Fiv(a) => fiv::run(&a, cli.progress),
         Command::Drt(a) => drt::run(&a, cli.progress),
+        Command::Vo(a) => vo::run(&a, cli.progress),
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
             crate::args::VerifyCommand::Mrt(v) => verify_mrt::run(&v, cli.progress),
             crate::args::VerifyCommand::Drt(v) => verify_drt::run(&v, cli.progress),
+            crate::args::VerifyCommand::Vo(v) => verify_vo::run(&v),
         },
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
