@@ -24,6 +24,7 @@ bench:
 	$(CARGO) bench --bench shadows
 	$(CARGO) bench --bench fiv
 	$(CARGO) bench --bench mrt_level
+	$(CARGO) bench --bench drt
 	$(CARGO) bench --bench capi
 
 # The README's first command: bake the demo config.

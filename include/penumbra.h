@@ -114,6 +114,12 @@
 typedef struct pn_cluster pn_cluster;
 
 /*
+ A level (`MRTL`) with its dictionary (`MRTD`, kind_version 3) and its clutter operators
+ (`DRTO`), with the evaluation buffers. One thread at a time.
+ */
+typedef struct pn_drt pn_drt;
+
+/*
  Placed occluders and the shading scratch. One thread at a time.
  */
 typedef struct pn_fiv_scene pn_fiv_scene;
@@ -228,6 +234,86 @@ extern "C" {
  at startup.
  */
 uint32_t pn_abi_version(void);
+
+/*
+ Opens the dictionary, level and DRT operators over the caller's bytes (all kept alive
+ until [`pn_drt_free`]); refuses operators baked for another level or dictionary layout.
+
+ # Safety
+ Each data pointer points to its size in readable bytes; `out` writable; `err` as usual.
+ */
+int32_t pn_drt_open(const uint8_t *dict_data,
+                    size_t dict_size,
+                    const uint8_t *level_data,
+                    size_t level_size,
+                    const uint8_t *drt_data,
+                    size_t drt_size,
+                    struct pn_drt **out,
+                    char *err,
+                    size_t err_len);
+
+/*
+ Frees a handle (NULL is a no-op).
+
+ # Safety
+ `h` is NULL or a live handle, not used afterwards.
+ */
+void pn_drt_free(struct pn_drt *h);
+
+/*
+ Scene texels (the length of `l_d` and `scene_out`, as [`crate::pn_mrt_texel_count`]).
+
+ # Safety
+ `h` is NULL or a live handle.
+ */
+size_t pn_drt_texel_count(const struct pn_drt *h);
+
+/*
+ Clutter texels (the length of `l_dc` and `clutter_out`); their world positions and normals
+ are the DRTO sections `clutter.positions` and `clutter.normals`.
+
+ # Safety
+ `h` is NULL or a live handle.
+ */
+size_t pn_drt_clutter_texel_count(const struct pn_drt *h);
+
+/*
+ One bounce with clutter: from direct irradiance `l_d` at the scene texels and `l_dc` at
+ the clutter texels, the scene's indirect irradiance (MRT + `ΔU_b b` + `ΔU_c c`) into
+ `scene_out` and the clutter's (`C_b b + C_c c`) into `clutter_out`. `channel` (0..=2)
+ selects the clutter albedo; `albedo_scale` is the walls' albedo over the dictionary's.
+
+ # Safety
+ `h` live; the arrays hold `texels` / `clutter_texels` floats and do not overlap.
+ */
+int32_t pn_drt_one_bounce(struct pn_drt *h,
+                          const float *l_d,
+                          float *scene_out,
+                          size_t texels,
+                          const float *l_dc,
+                          float *clutter_out,
+                          size_t clutter_texels,
+                          uint32_t channel,
+                          float albedo_scale);
+
+/*
+ `bounces` bounces through scene and clutter (each fed the previous one's scene and clutter
+ indirect light as direct light), their sums into the outputs; `bounces = 0` is one bounce
+ as [`pn_drt_one_bounce`].
+
+ # Safety
+ As [`pn_drt_one_bounce`].
+ */
+int32_t pn_drt_multi_bounce(struct pn_drt *h,
+                            const float *l_d,
+                            float *scene_out,
+                            size_t texels,
+                            const float *l_dc,
+                            float *clutter_out,
+                            size_t clutter_texels,
+                            uint32_t channel,
+                            float albedo_scale,
+                            uint32_t bounces);
 
 /*
  Opens a `FIVT` asset over the caller's bytes (f32 or f16 storage).

@@ -362,3 +362,74 @@ fn fiv_abi_equals_the_runtime() {
         pn_fiv_table_free(t);
     }
 }
+
+#[test]
+fn drt_abi_equals_the_runtime() {
+    let d = corpus("mrt-cube2d-r4-v3.mrtd");
+    let l = corpus("mrt-room1-v3.mrtl");
+    let o = corpus("drt-room1-pillar-r4.drto");
+    let mut err = vec![0u8; 256];
+    let e = err.as_mut_ptr().cast();
+    let mut h = ptr::null_mut();
+    // SAFETY: the pointers are the corpus files' bytes, alive for the whole test.
+    unsafe {
+        let st = pn_drt_open(
+            d.bytes().as_ptr(),
+            d.bytes().len(),
+            l.bytes().as_ptr(),
+            l.bytes().len(),
+            o.bytes().as_ptr(),
+            o.bytes().len(),
+            &mut h,
+            e,
+            err.len(),
+        );
+        assert_eq!(st, PN_OK, "{}", message(&err));
+        let (n, m) = (pn_drt_texel_count(h), pn_drt_clutter_texel_count(h));
+        assert!(n > 0 && m > 0);
+        let l_d: Vec<f32> = (0..n).map(|i| 0.5 + (i % 7) as f32 * 0.1).collect();
+        let l_dc: Vec<f32> = (0..m).map(|i| 0.2 + (i % 5) as f32 * 0.2).collect();
+        let (mut s, mut c) = (vec![0.0f32; n], vec![0.0f32; m]);
+        assert_eq!(
+            pn_drt_multi_bounce(h, l_d.as_ptr(), s.as_mut_ptr(), n, l_dc.as_ptr(), c.as_mut_ptr(), m, 1, 0.7, 3),
+            PN_OK
+        );
+        // the Rust runtime on the same bytes
+        let (da, la, oa) = (d.asset(), l.asset(), o.asset());
+        let dict = penumbra_runtime::mrt::MrtDictionary::from_asset(&da).unwrap();
+        let level = penumbra_runtime::mrt::MrtLevel::from_asset(&la, &dict).unwrap();
+        let ops = penumbra_runtime::drt::DrtOperators::from_asset(&oa, &dict, &level).unwrap();
+        let mut mrt = penumbra_runtime::mrt::MrtRuntime::new(dict, level);
+        let mut drt = penumbra_runtime::drt::DrtRuntime::new(ops, &mrt);
+        let (mut s2, mut c2) = (vec![0.0f32; n], vec![0.0f32; m]);
+        drt.multi_bounce(&mut mrt, &l_d, &l_dc, 1, 0.7, 3, &mut s2, &mut c2);
+        assert_eq!(s, s2);
+        assert_eq!(c, c2);
+        assert!(c.iter().any(|&v| v > 0.0));
+        // errors: sizes, channel, a DRTO opened against another level
+        assert_eq!(
+            pn_drt_one_bounce(h, l_d.as_ptr(), s.as_mut_ptr(), n - 1, l_dc.as_ptr(), c.as_mut_ptr(), m, 0, 1.0),
+            PN_ERR_SIZE
+        );
+        assert_eq!(
+            pn_drt_one_bounce(h, l_d.as_ptr(), s.as_mut_ptr(), n, l_dc.as_ptr(), c.as_mut_ptr(), m, 3, 1.0),
+            PN_ERR_RANGE
+        );
+        pn_drt_free(h);
+        let other = corpus("mrt-corridor3.mrtl");
+        let d2 = corpus("mrt-cube2d-r4-interfaces.mrtd");
+        let st = pn_drt_open(
+            d2.bytes().as_ptr(),
+            d2.bytes().len(),
+            other.bytes().as_ptr(),
+            other.bytes().len(),
+            o.bytes().as_ptr(),
+            o.bytes().len(),
+            &mut h,
+            e,
+            err.len(),
+        );
+        assert_eq!(st, PN_ERR_RUNTIME, "{}", message(&err));
+        assert!(message(&err).contains("du_b") || message(&err).contains("record"), "{}", message(&err));
+    }
+}
