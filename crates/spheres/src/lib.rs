@@ -25,6 +25,7 @@ pub mod metrics;
 pub mod octree;
 pub mod powell;
 pub mod reference;
+pub mod refine;
 pub mod samples;
 pub mod skin;
 pub mod sphere;
