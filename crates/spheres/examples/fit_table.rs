@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! cargo run --release -p penumbra-spheres --example fit_table -- [--grid 48] [--counts 16,32,64,128] \
-//!     [--octree] [--no-refine] [--medial] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
+//!     [--octree] [--no-refine] [--medial] [--iterations 100] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
 //! ```
 //!
 //! Names without a path are procedural shapes (`torus`: minor/major 0.19, 576 triangles) or
@@ -34,6 +34,7 @@ fn main() {
     let mut counts = vec![16usize, 32, 64, 128];
     let mut methods = vec![Method::Lloyd];
     let mut refine = true;
+    let mut iterations = 100usize;
     let mut seeding = penumbra_spheres::lloyd::Seeding::KMeansPlusPlus;
     let mut names = Vec::new();
     let mut args = std::env::args().skip(1);
@@ -45,12 +46,16 @@ fn main() {
             }
             "--octree" => methods.push(Method::Octree),
             "--no-refine" => refine = false,
+            "--iterations" => iterations = args.next().and_then(|g| g.parse().ok()).expect("--iterations N"),
             "--medial" => seeding = penumbra_spheres::lloyd::Seeding::Medial,
             _ => names.push(a),
         }
     }
     let data = penumbra_testkit::shared_data_dir().join("meshes");
-    println!("threads: {}, grid {grid}, refine {refine}, seeding {seeding:?}", rayon::current_num_threads());
+    println!(
+        "threads: {}, grid {grid}, refine {refine}, seeding {seeding:?}, iterations {iterations}",
+        rayon::current_num_threads()
+    );
     println!("| mesh | triangles | method | N | count | E | union | uncovered pts | s | iterations |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for name in &names {
@@ -73,6 +78,7 @@ fn main() {
                 p.method = method;
                 p.grid = grid;
                 p.refine = refine;
+                p.iterations = iterations;
                 p.seeding = seeding;
                 let t = Instant::now();
                 let r = penumbra_spheres::fit(&scene, &p, &NoProgress).expect("fit");
