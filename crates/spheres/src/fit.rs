@@ -183,7 +183,9 @@ pub struct FitReport {
     pub teleports_rejected: usize,
     /// The Lloyd iteration log (E by the volume model).
     pub log: Vec<IterationLog>,
-    /// Counts tried by a target search, with the measured value of the searched metric.
+    /// Requested counts tried by a target search, with the measured value of the searched
+    /// metric (the set of a request can have fewer spheres after the refinement, or another
+    /// count for the octree).
     pub search: Vec<(usize, f64)>,
     /// The outcome of a target search (`None` for a fixed count).
     pub target: Option<TargetOutcome>,
@@ -487,7 +489,9 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
                     let raw = fit_count(&ctx, &model, volume_model, p, n, progress)?;
                     let stored = to_input_f32(&ctx, &raw);
                     let v = value(&measure(&stored));
-                    search.push((raw.spheres.len(), v));
+                    // the requested count: the bisection runs over it (the refinement or the octree's
+                    // levels can give fewer or more spheres)
+                    search.push((n, v));
                     Ok((raw, stored, v))
                 };
             // Doubling until a count meets the target, then bisection between the largest
@@ -541,7 +545,7 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
                         format!("the search is capped at --max-count {max_n}")
                     };
                     let reason = format!(
-                        "no count up to {max_n} reaches {metric} ≤ {target}: the best, {v:.4} at {n} spheres, was kept; {why}"
+                        "no count up to {max_n} reaches {metric} ≤ {target}: the best, {v:.4} (requested count {n}), was kept; {why}"
                     );
                     target_outcome = Some(TargetOutcome {
                         metric,

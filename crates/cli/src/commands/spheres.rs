@@ -153,7 +153,7 @@ fn result_json(r: &FitResult, import: &ImportReport) -> Value {
         "e_history": accepted,
         "search": rep.search.iter().map(|(n, e)| {
             let metric = rep.target.as_ref().map_or("outside_volume_ratio", |t| t.metric);
-            json!({"count": n, metric: e})
+            json!({"requested_count": n, metric: e})
         }).collect::<Vec<_>>(),
         "target_met": rep.target.as_ref().map(|t| t.met),
         "target_reason": rep.target.as_ref().and_then(|t| t.reason.clone()),
