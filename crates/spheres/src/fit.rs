@@ -348,7 +348,21 @@ fn fit_count(
             ls.seeding = p.seeding;
             let o = lloyd::fit(&ctx.samples, model, volume_model, &ls, progress);
             let (spheres, assign) = if p.refine {
-                let (s, a, _) = crate::refine::refine_to_count(&ctx.samples, model, &o.spheres, &o.assign, n);
+                let (mut s, mut a, _) = crate::refine::refine_to_count(&ctx.samples, model, &o.spheres, &o.assign, n);
+                if s.len() < n {
+                    // The refinement could not spend every sphere again: refit from its spheres
+                    // plus new medial seeds where the set is sparsest, refine that, and keep
+                    // whichever set has less outside volume in its union (by the model).
+                    let kept: Vec<[f64; 3]> = s.iter().map(|x| x.center).collect();
+                    if let Some(c) = lloyd::more_medial_centers(&ctx.samples, &kept, n) {
+                        let o2 = lloyd::fit_from(&ctx.samples, model, volume_model, &ls, &c, progress);
+                        let (s2, a2, _) =
+                            crate::refine::refine_to_count(&ctx.samples, model, &o2.spheres, &o2.assign, n);
+                        if crate::refine::union_outside(model, &s2) < crate::refine::union_outside(model, &s) {
+                            (s, a) = (s2, a2);
+                        }
+                    }
+                }
                 (s, a)
             } else {
                 (o.spheres, o.assign)

@@ -142,14 +142,28 @@ pub fn fit(
     progress: &dyn Progress,
 ) -> LloydOutcome {
     let n = s.count.clamp(1, samples.elements.len().max(1));
-    let rel = |e: f64| if volume_t > 0.0 { e / volume_t } else { e };
-    let mut log = Vec::new();
-    let mut iterations = 1;
     let centers = match s.seeding {
         Seeding::KMeansPlusPlus => init_centers(samples, n, s.seed),
         Seeding::Medial => medial_centers(samples, n).unwrap_or_else(|| init_centers(samples, n, s.seed)),
     };
-    let mut best = step(samples, model, &centers, None);
+    fit_from(samples, model, volume_t, s, &centers, progress)
+}
+
+/// [`fit`] from given initial centres (their number is the sphere count; `s.count` and
+/// `s.seeding` are not used).
+pub fn fit_from(
+    samples: &Samples,
+    model: &VolumeModel,
+    volume_t: f64,
+    s: &LloydSettings,
+    centers: &[[f64; 3]],
+    progress: &dyn Progress,
+) -> LloydOutcome {
+    let n = centers.len();
+    let rel = |e: f64| if volume_t > 0.0 { e / volume_t } else { e };
+    let mut log = Vec::new();
+    let mut iterations = 1;
+    let mut best = step(samples, model, centers, None);
     log.push(IterationLog {
         iteration: 1,
         kind: StepKind::Lloyd,
@@ -272,7 +286,7 @@ fn init_centers(samples: &Samples, n: usize, seed: u64) -> Vec<[f64; 3]> {
 /// plate). Spheres centred there bound a whole cross-section with the least bulge, which is
 /// what thin parts need and what surface-dominated k-means++ seeds miss. `None` when there
 /// are fewer ridge nodes than spheres.
-fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
+fn ridge_nodes(samples: &Samples) -> Option<Vec<usize>> {
     let first = samples.surface_elements;
     let depth = &samples.interior_depth;
     if depth.len() != samples.elements.len() - first || depth.is_empty() {
@@ -314,13 +328,36 @@ fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
             ridge.push(k);
         }
     }
+    Some(ridge)
+}
+
+fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
+    let ridge = ridge_nodes(samples)?;
     if ridge.len() < n {
         return None;
     }
-    let pos = |k: usize| samples.elements[first + k].rep;
+    let first = samples.surface_elements;
+    let depth = &samples.interior_depth;
     let start = *ridge.iter().max_by(|&&a, &&b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))?;
-    let mut centers = vec![pos(start)];
-    let mut d2: Vec<f64> = ridge.iter().map(|&k| dist2(pos(k), pos(start))).collect();
+    Some(farthest_points(samples, &ridge, vec![samples.elements[first + start].rep], n))
+}
+
+/// `existing` centres followed by ridge nodes farthest-point sampled from them, `n` in all
+/// (used to spend spheres the refinement dropped); `None` without enough ridge nodes.
+pub fn more_medial_centers(samples: &Samples, existing: &[[f64; 3]], n: usize) -> Option<Vec<[f64; 3]>> {
+    let ridge = ridge_nodes(samples)?;
+    if existing.is_empty() || ridge.len() < n.saturating_sub(existing.len()) {
+        return None;
+    }
+    Some(farthest_points(samples, &ridge, existing.to_vec(), n))
+}
+
+/// Farthest-point sampling over the ridge nodes, continuing from `centers`, up to `n`.
+fn farthest_points(samples: &Samples, ridge: &[usize], mut centers: Vec<[f64; 3]>, n: usize) -> Vec<[f64; 3]> {
+    let first = samples.surface_elements;
+    let pos = |k: usize| samples.elements[first + k].rep;
+    let mut d2: Vec<f64> =
+        ridge.iter().map(|&k| centers.iter().map(|&c| dist2(pos(k), c)).fold(f64::INFINITY, f64::min)).collect();
     while centers.len() < n {
         let (mut bi, mut bd) = (0usize, -1.0f64);
         for (i, &d) in d2.iter().enumerate() {
@@ -334,7 +371,7 @@ fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
             d2[i] = d2[i].min(dist2(pos(k), c));
         }
     }
-    Some(centers)
+    centers
 }
 
 /// Clustering from `centers`, then a Powell update of every cluster sphere. A cluster whose

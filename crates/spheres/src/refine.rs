@@ -24,6 +24,12 @@ use crate::samples::Samples;
 use crate::sphere::{Sphere, dist2};
 use crate::volume::VolumeModel;
 
+/// `V(∪ spheres − T)` by the volume model: each sphere's outside volume not inside an earlier
+/// one, summed (inclusion in index order, so every outside point counts once).
+pub fn union_outside(model: &VolumeModel, spheres: &[Sphere]) -> f64 {
+    (0..spheres.len()).map(|i| model.exclusive_outside(&spheres[i], &spheres[..i])).sum()
+}
+
 /// What the refinement did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct RefineStats {
