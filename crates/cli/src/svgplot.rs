@@ -1,6 +1,7 @@
 //! A small, dependency-free SVG line/scatter plot for `penumbra sweep` (deterministic text,
 //! viewable in any browser). Log-scale x axis, linear y axis, one polyline per series with
-//! point labels, and optionally the Pareto front (lower-left envelope) as a dashed line.
+//! point labels, and optionally the Pareto front (lower-left envelope) as a dashed line with
+//! hollow squares on its points.
 
 use std::fmt::Write;
 
@@ -24,7 +25,7 @@ pub struct Panel {
     pub y_label: String,
     /// The data.
     pub series: Vec<Series>,
-    /// Points of the Pareto front, drawn as a dashed black line with rings (empty: none).
+    /// Points of the Pareto front, drawn as a dashed black line with hollow squares (empty: none).
     pub front: Vec<(f64, f64)>,
 }
 
@@ -152,12 +153,13 @@ pub fn render(panels: &[Panel]) -> String {
                 r##"<polyline points="{}" fill="none" stroke="#000" stroke-width="1" stroke-dasharray="4 3"/>"##,
                 path.join(" ")
             );
+            // hollow squares, so that data points stay countable as the only circles
             for q in &front {
                 let _ = writeln!(
                     s,
-                    r##"<circle cx="{:.1}" cy="{:.1}" r="5.5" fill="none" stroke="#000" stroke-width="1"/>"##,
-                    sx(q.0),
-                    sy(q.1)
+                    r##"<rect x="{:.1}" y="{:.1}" width="11" height="11" fill="none" stroke="#000" stroke-width="1"/>"##,
+                    sx(q.0) - 5.5,
+                    sy(q.1) - 5.5
                 );
             }
             let ly = M.2 + 14.0 + 14.0 * p.series.len() as f64;
@@ -211,6 +213,7 @@ mod tests {
         };
         let svg = render(&[p]);
         assert!(svg.contains("Pareto front") && svg.contains("stroke-dasharray"));
-        assert_eq!(svg.matches("<circle").count(), 4, "two points + two front rings");
+        assert_eq!(svg.matches("<circle").count(), 2, "one circle per data point");
+        assert_eq!(svg.matches(r#"width="11""#).count(), 2, "one square per front point");
     }
 }
