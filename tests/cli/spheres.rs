@@ -224,3 +224,92 @@ fn bake_config_spheres_stage() {
     let b = AssetFile::open(dir.path().join("out/c.sphr")).unwrap();
     assert_eq!(a.asset().section("spheres").unwrap().bytes(), b.asset().section("spheres").unwrap().bytes());
 }
+
+#[test]
+fn spheres_target_search_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    // reachable: the count meets the target and the count below it was probed and missed
+    let out = dir.path().join("t.sphr");
+    let (code, stdout, stderr) = fit(&out, &["--target-union", "0.8", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let n = v["requested_count"].as_u64().unwrap();
+    assert!(v["count"].as_u64().unwrap() <= n);
+    assert_eq!(v["target_met"], true);
+    assert!(v["union_outside_ratio"].as_f64().unwrap() <= 0.8);
+    let probe = |k: u64| {
+        v["search"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["requested_count"] == k)
+            .map(|s| s["union_outside_ratio"].as_f64().unwrap())
+    };
+    if n > 1 {
+        assert!(probe(n - 1).is_some_and(|x| x > 0.8), "{stdout}");
+    }
+    // unreachable within --max-count: exit 1, the best set written, the reason given
+    let out = dir.path().join("u.sphr");
+    let (code, stdout, stderr) = fit(&out, &["--target-error", "0.001", "--max-count", "3", "--json"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("target not met") && stderr.contains("--max-count 3"), "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["target_met"], false);
+    assert!(v["target_reason"].as_str().is_some());
+    let file = AssetFile::open(&out).unwrap();
+    assert_eq!(file.asset().section("spheres").unwrap().dims()[0] as u64, v["count"].as_u64().unwrap());
+    // --max-count without a target search is a usage error
+    let (code, _, stderr) = fit(&out, &["--count", "4", "--max-count", "8"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("--max-count"), "{stderr}");
+    // a flat sheet has no volume: exit 2 naming the file, no output
+    let flat = dir.path().join("flat.obj");
+    std::fs::write(&flat, penumbra_geometry::export::obj_text(&penumbra_geometry::procedural::grid(4), "flat"))
+        .unwrap();
+    let out = dir.path().join("flat.sphr");
+    let (code, _, stderr) = run(penumbra().arg("spheres").arg(&flat).args(["--target-error", "0.5", "-o"]).arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("flat.obj") && stderr.contains("no volume"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn sweep_spheres_writes_table_plot_and_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["sweep", "spheres"])
+        .arg(character())
+        .args(["--counts", "4,8", "--grids", "16", "--methods", "lloyd,octree", "--json", "-o"])
+        .arg(&out));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 4, "2 methods × 1 grid × 2 counts");
+    for r in rows {
+        assert!(r["union_outside_ratio"].as_f64().unwrap() > 0.0);
+        assert!(r["bake_seconds"].as_f64().unwrap() > 0.0);
+        assert_eq!(r["uncovered_sample_points"], 0);
+    }
+    // the front is the undominated (seconds, union) rows: at least one, and none dominated
+    let pt = |r: &Value| (r["bake_seconds"].as_f64().unwrap(), r["union_outside_ratio"].as_f64().unwrap());
+    let front: Vec<&Value> = rows.iter().filter(|r| r["pareto_union"] == true).collect();
+    assert!(!front.is_empty());
+    for f in &front {
+        let (x, y) = pt(f);
+        assert!(!rows.iter().any(|r| {
+            let (a, b) = pt(r);
+            a <= x && b <= y && (a < x || b < y)
+        }));
+    }
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5);
+    assert!(csv.starts_with("method,grid,requested_count,count,bake_seconds"));
+    let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
+    assert!(svg.contains("Pareto front") && svg.contains("octree") && svg.contains("lloyd"));
+    assert!(out.join("lloyd-g16-8.sphr").is_file());
+    let (code, _, stderr) =
+        run(penumbra().args(["sweep", "spheres"]).arg(character()).args(["--grids", "4", "-o"]).arg(&out));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("--grids") && stderr.contains("8..=256"), "{stderr}");
+}

@@ -132,6 +132,16 @@ pub enum SphereMethod {
     Octree,
 }
 
+/// Initial centres of the Lloyd sphere fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SphereSeeding {
+    /// Farthest-point sampling along the medial axis (ridges of the distance to the surface).
+    Medial,
+    /// k-means++ (D² sampling) over all surface and interior elements.
+    #[value(name = "kmeans++")]
+    KmeansPlusPlus,
+}
+
 fn parse_positive(s: &str) -> Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
     if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{v} is out of range (allowed: a positive number)")) }
@@ -140,7 +150,7 @@ fn parse_positive(s: &str) -> Result<f64, String> {
 /// `penumbra spheres`.
 #[derive(Debug, Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
-#[command(group = clap::ArgGroup::new("sphere_target").required(true).multiple(false).args(["count", "target_error"]))]
+#[command(group = clap::ArgGroup::new("sphere_target").required(true).multiple(false).args(["count", "target_error", "target_union"]))]
 pub struct SpheresArgs {
     /// `export`: write a fitted set as an OBJ for viewing.
     #[command(subcommand)]
@@ -162,6 +172,13 @@ pub struct SpheresFitArgs {
     /// Fit the smallest count whose outside volume ratio E = Σ V(Sᵢ − T)/V(T) is at most this.
     #[arg(long, value_parser = parse_positive)]
     pub target_error: Option<f64>,
+    /// Fit the smallest count whose union outside ratio V(∪Sᵢ − T)/V(T) is at most this.
+    #[arg(long, value_parser = parse_positive)]
+    pub target_union: Option<f64>,
+    /// Largest count a --target-error/--target-union search tries; a target no count up to it
+    /// meets exits 1 with the best set written.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub max_count: Option<u32>,
     /// Fitting method.
     #[arg(long, value_enum, default_value_t = SphereMethod::Lloyd)]
     pub method: SphereMethod,
@@ -174,6 +191,14 @@ pub struct SpheresFitArgs {
     /// Seed of the initial centres and of the measurements.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Initial centres of the Lloyd fit: along the medial axis (ridges of the distance to the
+    /// surface) or k-means++ over all elements.
+    #[arg(long, value_enum, default_value_t = SphereSeeding::Medial)]
+    pub seeding: SphereSeeding,
+    /// Skip the union-aware refinement after the Lloyd fit (shrink spheres to what no other
+    /// sphere bounds, drop and re-split the redundant ones).
+    #[arg(long)]
+    pub no_refine: bool,
     /// Also build the sphere hierarchy (SHEXP §6.3, branching 4).
     #[arg(long)]
     pub hierarchy: bool,
@@ -396,4 +421,6 @@ pub struct SweepArgs {
 pub enum SweepCommand {
     /// Sphere-proxy shadows over sphere count × SH order × exponential.
     Shadows(crate::commands::sweep_shadows::SweepShadowsArgs),
+    /// Sphere-set fits over sphere count × grid × method (union ratio and E against bake time).
+    Spheres(crate::commands::sweep_spheres::SweepSpheresArgs),
 }

@@ -1,6 +1,7 @@
 //! A small, dependency-free SVG line/scatter plot for `penumbra sweep` (deterministic text,
 //! viewable in any browser). Log-scale x axis, linear y axis, one polyline per series with
-//! point labels.
+//! point labels, and optionally the Pareto front (lower-left envelope) as a dashed line with
+//! hollow squares on its points.
 
 use std::fmt::Write;
 
@@ -24,6 +25,18 @@ pub struct Panel {
     pub y_label: String,
     /// The data.
     pub series: Vec<Series>,
+    /// Points of the Pareto front, drawn as a dashed black line with hollow squares (empty: none).
+    pub front: Vec<(f64, f64)>,
+}
+
+/// Which points are on the Pareto front when both coordinates are to be minimised: no other
+/// point is at least as good in both and better in one. Non-finite points are never on it.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<bool> {
+    let ok = |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite();
+    points
+        .iter()
+        .map(|p| ok(p) && !points.iter().any(|q| ok(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1)))
+        .collect()
 }
 
 const W: f64 = 560.0;
@@ -130,6 +143,36 @@ pub fn render(panels: &[Panel]) -> String {
             );
             let _ = writeln!(s, r#"<text x="{}" y="{ly}">{}</text>"#, lx + 22.0, esc(&se.name));
         }
+        let mut front: Vec<(f64, f64)> =
+            p.front.iter().copied().filter(|q| q.0 > 0.0 && q.0.is_finite() && q.1.is_finite()).collect();
+        if !front.is_empty() {
+            front.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.total_cmp(&a.1)));
+            let path: Vec<String> = front.iter().map(|q| format!("{:.1},{:.1}", sx(q.0), sy(q.1))).collect();
+            let _ = writeln!(
+                s,
+                r##"<polyline points="{}" fill="none" stroke="#000" stroke-width="1" stroke-dasharray="4 3"/>"##,
+                path.join(" ")
+            );
+            // hollow squares, so that data points stay countable as the only circles
+            for q in &front {
+                let _ = writeln!(
+                    s,
+                    r##"<rect x="{:.1}" y="{:.1}" width="11" height="11" fill="none" stroke="#000" stroke-width="1"/>"##,
+                    sx(q.0) - 5.5,
+                    sy(q.1) - 5.5
+                );
+            }
+            let ly = M.2 + 14.0 + 14.0 * p.series.len() as f64;
+            let lx = ox + M.0 + pw - 110.0;
+            let _ = writeln!(
+                s,
+                r##"<line x1="{lx}" y1="{}" x2="{}" y2="{}" stroke="#000" stroke-dasharray="4 3"/>"##,
+                ly - 4.0,
+                lx + 18.0,
+                ly - 4.0
+            );
+            let _ = writeln!(s, r#"<text x="{}" y="{ly}">Pareto front</text>"#, lx + 22.0);
+        }
     }
     s.push_str("</svg>\n");
     s
@@ -146,10 +189,31 @@ mod tests {
             x_label: "x".into(),
             y_label: "y".into(),
             series: vec![Series { name: "s".into(), points: vec![(1.0, 0.5, "8".into()), (100.0, 0.1, "64".into())] }],
+            front: Vec::new(),
         };
         let svg = render(&[p.clone(), p]);
         assert!(svg.starts_with("<svg") && svg.ends_with("</svg>\n"));
         assert_eq!(svg.matches("<circle").count(), 4);
         assert!(svg.contains("a &lt; b") && !svg.contains("a < b"));
+        assert!(!svg.contains("Pareto"));
+    }
+
+    #[test]
+    fn pareto_front_keeps_the_undominated_points() {
+        // (1, 5) and (2, 1) are undominated; (3, 2) is worse than (2, 1) in both; (2, 3) is
+        // dominated by (2, 1) (equal x, larger y); NaN never counts
+        let pts = [(1.0, 5.0), (2.0, 1.0), (3.0, 2.0), (2.0, 3.0), (f64::NAN, 0.0)];
+        assert_eq!(pareto_front(&pts), [true, true, false, false, false]);
+        let p = Panel {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![Series { name: "s".into(), points: vec![(1.0, 5.0, "a".into()), (2.0, 1.0, "b".into())] }],
+            front: vec![(1.0, 5.0), (2.0, 1.0)],
+        };
+        let svg = render(&[p]);
+        assert!(svg.contains("Pareto front") && svg.contains("stroke-dasharray"));
+        assert_eq!(svg.matches("<circle").count(), 2, "one circle per data point");
+        assert_eq!(svg.matches(r#"width="11""#).count(), 2, "one square per front point");
     }
 }

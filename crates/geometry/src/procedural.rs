@@ -282,6 +282,76 @@ pub fn rounded_box_sdf(p: DVec3, center: DVec3, half: DVec3, round: f64) -> f64 
     q.max(DVec3::ZERO).length() + q.max_element().min(0.0) - round
 }
 
+/// Thin-feature test shape: a tube of radius 0.08 bent into a U (a half circle of radius 0.6
+/// joining two straight legs of length 0.8), the kind of pipe or handle sphere fits struggle
+/// with. Closed, by marching tetrahedra at `cells` along the longest side (2 units).
+pub fn bent_tube(cells: usize) -> TriMesh {
+    let r = 0.08;
+    let mut pts = vec![DVec3::new(-0.6, -0.8, 0.0)];
+    for k in 0..=24 {
+        let a = PI * k as f64 / 24.0;
+        pts.push(DVec3::new(-0.6 * a.cos(), 0.6 * a.sin(), 0.0));
+    }
+    pts.push(DVec3::new(0.6, -0.8, 0.0));
+    let sdf = move |p: DVec3| pts.windows(2).map(|w| capsule_sdf(p, w[0], w[1], r)).fold(f64::INFINITY, f64::min);
+    let pad = 0.0613;
+    implicit_surface(sdf, [-0.68 - pad, -0.88 - pad, -r - pad], [0.68 + pad, 0.68 + pad, r + pad], cells)
+}
+
+/// Thin-feature test shape: a plate 1.6 × 1.0 and 0.06 thick with rounded edges (aspect
+/// ratio ≈ 27). Closed, by marching tetrahedra at `cells` along the longest side.
+pub fn thin_plate(cells: usize) -> TriMesh {
+    let half = DVec3::new(0.8, 0.03, 0.5);
+    let sdf = move |p: DVec3| rounded_box_sdf(p, DVec3::ZERO, half, 0.025);
+    let pad = 0.0571;
+    implicit_surface(sdf, [-0.8 - pad, -0.03 - pad, -0.5 - pad], [0.8 + pad, 0.03 + pad, 0.5 + pad], cells)
+}
+
+/// Thin-feature test shape: a zig-zag chain of five capsules of radii 0.05–0.1 (a limb or a
+/// railing). Closed, by marching tetrahedra at `cells` along the longest side.
+pub fn capsule_chain(cells: usize) -> TriMesh {
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let joints = [
+        v(-1.0, 0.0, 0.0),
+        v(-0.55, 0.3, 0.1),
+        v(-0.1, -0.1, 0.0),
+        v(0.35, 0.25, -0.1),
+        v(0.7, -0.2, 0.05),
+        v(1.0, 0.1, 0.2),
+    ];
+    let radii = [0.1, 0.07, 0.05, 0.08, 0.06];
+    let sdf = move |p: DVec3| {
+        (0..5).map(|i| capsule_sdf(p, joints[i], joints[i + 1], radii[i])).fold(f64::INFINITY, f64::min)
+    };
+    let pad = 0.0537;
+    implicit_surface(sdf, [-1.1 - pad, -0.3 - pad, -0.2 - pad], [1.1 + pad, 0.4 + pad, 0.3 + pad], cells)
+}
+
+/// An open mesh: the side of a cylinder (radius 0.15, length 1.5 along +Y, centred at the
+/// origin) without its caps, `n` segments around and `m` along. Its inside by the generalized
+/// winding number is the solid cylinder (the open ends are spanned like soap films).
+pub fn open_tube(n: usize, m: usize) -> TriMesh {
+    let (n, m) = (n.max(3), m.max(1));
+    let mut positions = Vec::with_capacity(n * (m + 1));
+    for j in 0..=m {
+        let y = -0.75 + 1.5 * j as f64 / m as f64;
+        for i in 0..n {
+            let u = TAU * i as f64 / n as f64;
+            positions.push([0.15 * u.sin(), y, 0.15 * u.cos()]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * n + i % n) as u32;
+    let mut indices = Vec::with_capacity(2 * n * m);
+    for j in 0..m {
+        for i in 0..n {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
+            indices.push([a, b, d]);
+            indices.push([a, d, c]);
+        }
+    }
+    TriMesh { positions, indices }
+}
+
 /// Marching-tetrahedra resolution of the committed demo character.
 pub const DEMO_CHARACTER_CELLS: usize = 36;
 
@@ -378,5 +448,23 @@ mod tests {
         let b = m.bounds().unwrap();
         assert!(b.min[1] > -0.01 && b.max[1] > 1.7 && b.max[1] < 1.8, "{b:?}");
         assert!(m.signed_volume() > 0.0);
+    }
+    #[test]
+    fn thin_feature_shapes_are_closed_or_open_as_documented() {
+        for (name, m) in
+            [("bent tube", bent_tube(64)), ("thin plate", thin_plate(64)), ("capsule chain", capsule_chain(64))]
+        {
+            assert!(m.is_watertight(), "{name}");
+            assert!(m.signed_volume() > 0.0, "{name}");
+        }
+        // the bent tube's volume is close to π r² × its centre-line length (2 legs + half circle)
+        let v = bent_tube(96).signed_volume();
+        let exact = PI * 0.08f64.powi(2) * (2.0 * 0.8 + PI * 0.6) + 4.0 / 3.0 * PI * 0.08f64.powi(3);
+        assert!((v - exact).abs() < 0.05 * exact, "{v} vs {exact}");
+        let o = open_tube(24, 6);
+        assert!(!o.is_watertight());
+        assert_eq!(o.indices.len(), 2 * 24 * 6);
+        // outward: the signed volume of the side alone is positive (caps would add the rest)
+        assert!(o.signed_volume() > 0.0);
     }
 }

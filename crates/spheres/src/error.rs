@@ -34,6 +34,15 @@ pub enum SpheresError {
         /// Grid resolution.
         grid: usize,
     },
+    /// A target search on a mesh without volume (a flat or open sheet): E and the union
+    /// ratio are ratios to V(T), which is zero.
+    #[error(
+        "the mesh encloses no volume (flat or open sheet), so {metric} (a ratio to the mesh volume) is undefined; fit a fixed --count instead"
+    )]
+    NoVolume {
+        /// The metric the search would bisect on.
+        metric: &'static str,
+    },
     /// Skinning failed.
     #[error("skinning: {0}")]
     Skin(#[from] SkinError),

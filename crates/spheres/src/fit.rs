@@ -34,12 +34,29 @@ pub enum Method {
 pub enum Target {
     /// Exactly this many spheres (octree: about this many).
     Count(usize),
-    /// The smallest count (within the search) whose measured E is at most this.
+    /// The smallest count (up to [`FitParams::max_count`]) whose measured E = Σ V(Sᵢ − T)/V(T)
+    /// is at most this.
     Error(f64),
+    /// The smallest count (up to [`FitParams::max_count`]) whose measured union outside ratio
+    /// V(∪Sᵢ − T)/V(T) is at most this (what leaks light: overlaps count once).
+    Union(f64),
+}
+
+impl Target {
+    /// The metric a target search bisects on, with its name; `None` for a fixed count.
+    fn searched(&self) -> Option<(&'static str, f64)> {
+        match *self {
+            Target::Count(_) => None,
+            Target::Error(e) => Some(("outside_volume_ratio", e)),
+            Target::Union(u) => Some(("union_outside_ratio", u)),
+        }
+    }
 }
 
 /// Largest sphere count.
 pub const MAX_COUNT: usize = 4096;
+/// Default cap of a target search (`--max-count`): the doubling stops at this count.
+pub const DEFAULT_MAX_COUNT: usize = 256;
 /// Allowed `grid` range.
 pub const GRID_RANGE: std::ops::RangeInclusive<usize> = 8..=256;
 
@@ -48,6 +65,8 @@ pub const GRID_RANGE: std::ops::RangeInclusive<usize> = 8..=256;
 pub struct FitParams {
     /// Count or target error.
     pub target: Target,
+    /// Largest count a target search tries (`--max-count`; default [`DEFAULT_MAX_COUNT`]).
+    pub max_count: usize,
     /// Method.
     pub method: Method,
     /// Grid resolution: about `grid³` cells in the mesh's bounding box (interior points and
@@ -57,6 +76,10 @@ pub struct FitParams {
     pub iterations: usize,
     /// Seed.
     pub seed: u64,
+    /// Initial centres of the Lloyd fit.
+    pub seeding: lloyd::Seeding,
+    /// Union-aware refinement after the Lloyd fit ([`crate::refine`]; on by default).
+    pub refine: bool,
     /// Build the hierarchy.
     pub hierarchy: bool,
     /// Compute skin weights (needs a skinned scene).
@@ -70,10 +93,13 @@ impl FitParams {
     pub fn new(target: Target) -> Self {
         Self {
             target,
+            max_count: DEFAULT_MAX_COUNT,
             method: Method::Lloyd,
             grid: 48,
             iterations: 100,
             seed: 1,
+            refine: true,
+            seeding: lloyd::Seeding::Medial,
             hierarchy: false,
             skin: false,
             metrics: MetricSettings::default(),
@@ -97,7 +123,21 @@ impl FitParams {
                     allowed: "a positive number (E = Σ V(Sᵢ − T) / V(T))".into(),
                 });
             }
+            Target::Union(e) if !(e > 0.0 && e.is_finite()) => {
+                return Err(SpheresError::OutOfRange {
+                    name: "target-union",
+                    value: e.to_string(),
+                    allowed: "a positive number (V(∪Sᵢ − T) / V(T))".into(),
+                });
+            }
             _ => {}
+        }
+        if !(1..=MAX_COUNT).contains(&self.max_count) {
+            return Err(SpheresError::OutOfRange {
+                name: "max-count",
+                value: self.max_count.to_string(),
+                allowed: format!("1..={MAX_COUNT}"),
+            });
         }
         if !GRID_RANGE.contains(&self.grid) {
             return Err(SpheresError::OutOfRange {
@@ -143,8 +183,12 @@ pub struct FitReport {
     pub teleports_rejected: usize,
     /// The Lloyd iteration log (E by the volume model).
     pub log: Vec<IterationLog>,
-    /// Counts tried by a `--target-error` search, with their measured E.
+    /// Requested counts tried by a target search, with the measured value of the searched
+    /// metric (the set of a request can have fewer spheres after the refinement, or another
+    /// count for the octree).
     pub search: Vec<(usize, f64)>,
+    /// The outcome of a target search (`None` for a fixed count).
+    pub target: Option<TargetOutcome>,
     /// Octree level used and the cell counts of every level.
     pub octree_level: Option<u32>,
     /// Octree cell counts per level.
@@ -169,6 +213,22 @@ pub struct FitReport {
     pub fit_seconds: f64,
     /// Seconds: hierarchy, skin and measurements.
     pub finish_seconds: f64,
+}
+
+/// How a target search (`--target-error`, `--target-union`) ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetOutcome {
+    /// The searched metric: `outside_volume_ratio` or `union_outside_ratio`.
+    pub metric: &'static str,
+    /// The target value.
+    pub value: f64,
+    /// Whether the returned set meets it.
+    pub met: bool,
+    /// The largest count the search could try (`max_count`, or fewer when the mesh
+    /// discretises into fewer elements).
+    pub max_count: usize,
+    /// Why the target was not met (`None` when it was).
+    pub reason: Option<String>,
 }
 
 /// The result of a bake.
@@ -221,7 +281,8 @@ impl Context {
         let bounds = canonical.bounds().ok_or(SpheresError::EmptyMesh)?;
         let spec = GridSpec::fit(&bounds, grid_res, 2);
         let grid = SignedDistanceGrid::build(&canonical, &bvh, &winding, spec, watertight);
-        let samples = Samples::build(&canonical, &input, &frame, &grid);
+        let mut samples = Samples::build(&canonical, &input, &frame, &grid);
+        samples.set_depths(&bvh);
         let volume_exact = watertight.then(|| canonical.signed_volume());
         Ok(Self { frame, canonical, grid, winding, samples, volume_exact, watertight, flipped })
     }
@@ -284,10 +345,31 @@ fn fit_count(
             let mut ls = LloydSettings::new(n);
             ls.iterations = p.iterations;
             ls.seed = p.seed;
+            ls.seeding = p.seeding;
             let o = lloyd::fit(&ctx.samples, model, volume_model, &ls, progress);
+            let (spheres, assign) = if p.refine {
+                let (mut s, mut a, _) = crate::refine::refine_to_count(&ctx.samples, model, &o.spheres, &o.assign, n);
+                if s.len() < n {
+                    // The refinement could not spend every sphere again: refit from its spheres
+                    // plus new medial seeds where the set is sparsest, refine that, and keep
+                    // whichever set has less outside volume in its union (by the model).
+                    let kept: Vec<[f64; 3]> = s.iter().map(|x| x.center).collect();
+                    if let Some(c) = lloyd::more_medial_centers(&ctx.samples, &kept, n) {
+                        let o2 = lloyd::fit_from(&ctx.samples, model, volume_model, &ls, &c, progress);
+                        let (s2, a2, _) =
+                            crate::refine::refine_to_count(&ctx.samples, model, &o2.spheres, &o2.assign, n);
+                        if crate::refine::union_outside(model, &s2) < crate::refine::union_outside(model, &s) {
+                            (s, a) = (s2, a2);
+                        }
+                    }
+                }
+                (s, a)
+            } else {
+                (o.spheres, o.assign)
+            };
             Ok(RawFit {
-                spheres: o.spheres,
-                assign: Some(o.assign),
+                spheres,
+                assign: Some(assign),
                 log: o.log,
                 iterations: o.iterations,
                 teleports: (o.teleports_accepted, o.teleports_rejected),
@@ -397,43 +479,98 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
         )
     };
     let mut search = Vec::new();
+    let mut target_outcome = None;
     let (raw, mut stored, n_req) = match p.target {
         Target::Count(n) => {
             let raw = fit_count(&ctx, &model, volume_model, p, n, progress)?;
             let stored = to_input_f32(&ctx, &raw);
             (raw, stored, n)
         }
-        Target::Error(target) => {
-            // doubling, then bisection on the measured E
-            let max_n = MAX_COUNT.min(ctx.samples.elements.len());
-            let mut lo = 0usize; // largest count known to miss the target
+        Target::Error(_) | Target::Union(_) => {
+            let (metric, target) = p.target.searched().unwrap_or(("outside_volume_ratio", f64::NAN));
+            // E and the union ratio are ratios to V(T): a mesh without volume has none to
+            // search on (the same threshold as `metrics`)
+            if volume_t.is_nan() || volume_t <= 1e-12 {
+                return Err(SpheresError::NoVolume { metric });
+            }
+            let value = |m: &Metrics| match p.target {
+                Target::Union(_) => m.union_outside_ratio,
+                _ => m.outside_volume_ratio,
+            };
+            let max_n = p.max_count.min(if p.method == Method::Lloyd { ctx.samples.elements.len() } else { MAX_COUNT });
+            let probe =
+                |n: usize, search: &mut Vec<(usize, f64)>| -> Result<(RawFit, Vec<[f32; 4]>, f64), SpheresError> {
+                    let raw = fit_count(&ctx, &model, volume_model, p, n, progress)?;
+                    let stored = to_input_f32(&ctx, &raw);
+                    let v = value(&measure(&stored));
+                    // the requested count: the bisection runs over it (the refinement or the octree's
+                    // levels can give fewer or more spheres)
+                    search.push((n, v));
+                    Ok((raw, stored, v))
+                };
+            // Doubling until a count meets the target, then bisection between the largest
+            // count known to miss (`lo`) and the smallest known to meet (`hi`) down to
+            // `hi − lo = 1`: the count returned meets the target and the count below it was
+            // probed and missed. (A fit's quality is not exactly monotone in the count, so
+            // this is the boundary the search brackets, not a proof that no smaller count
+            // meets the target.)
+            let mut lo = 0usize;
             let mut n = 1usize;
-            let (mut raw, mut stored, mut hi) = loop {
-                let raw = fit_count(&ctx, &model, volume_model, p, n, progress)?;
-                let stored = to_input_f32(&ctx, &raw);
-                let e = measure(&stored).outside_volume_ratio;
-                search.push((raw.spheres.len(), e));
-                if e <= target || n >= max_n {
-                    break (raw, stored, n);
+            let mut best_miss: Option<(RawFit, Vec<[f32; 4]>, f64, usize)> = None;
+            let mut found = None;
+            loop {
+                let (raw, stored, v) = probe(n, &mut search)?;
+                if v <= target {
+                    found = Some((raw, stored, n));
+                    break;
                 }
                 lo = n;
+                if best_miss.as_ref().is_none_or(|b| v < b.2) {
+                    best_miss = Some((raw, stored, v, n));
+                }
+                if n >= max_n {
+                    break;
+                }
                 n = (2 * n).min(max_n);
-            };
-            while hi - lo > 1.max(lo / 8) && search.last().is_some_and(|x| x.1 <= target) {
-                let mid = lo + (hi - lo) / 2;
-                let r = fit_count(&ctx, &model, volume_model, p, mid, progress)?;
-                let s = to_input_f32(&ctx, &r);
-                let e = measure(&s).outside_volume_ratio;
-                search.push((r.spheres.len(), e));
-                if e <= target {
-                    raw = r;
-                    stored = s;
-                    hi = mid;
-                } else {
-                    lo = mid;
+            }
+            match found {
+                Some((mut raw, mut stored, mut hi)) => {
+                    while hi - lo > 1 {
+                        let mid = lo + (hi - lo) / 2;
+                        let (r, s, v) = probe(mid, &mut search)?;
+                        if v <= target {
+                            (raw, stored, hi) = (r, s, mid);
+                        } else {
+                            lo = mid;
+                        }
+                    }
+                    target_outcome =
+                        Some(TargetOutcome { metric, value: target, met: true, max_count: max_n, reason: None });
+                    (raw, stored, hi)
+                }
+                None => {
+                    let (raw, stored, v, n) = best_miss.ok_or(SpheresError::EmptyMesh)?;
+                    let why = if max_n < p.max_count {
+                        format!(
+                            "the mesh discretises into only {max_n} elements at grid {} (a finer --grid allows more spheres)",
+                            p.grid
+                        )
+                    } else {
+                        format!("the search is capped at --max-count {max_n}")
+                    };
+                    let reason = format!(
+                        "no count up to {max_n} reaches {metric} ≤ {target}: the best, {v:.4} (requested count {n}), was kept; {why}"
+                    );
+                    target_outcome = Some(TargetOutcome {
+                        metric,
+                        value: target,
+                        met: false,
+                        max_count: max_n,
+                        reason: Some(reason),
+                    });
+                    (raw, stored, n)
                 }
             }
-            (raw, stored, hi)
         }
     };
     let fit_seconds = t1.elapsed().as_secs_f64();
@@ -472,6 +609,7 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
         teleports_rejected: raw.teleports.1,
         log: raw.log,
         search,
+        target: target_outcome,
         octree_level: raw.octree.as_ref().map(|o| o.0),
         octree_level_counts: raw.octree.map(|o| o.1).unwrap_or_default(),
         grid_nodes: spec.nodes,

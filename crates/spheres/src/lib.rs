@@ -6,8 +6,10 @@
 //! character.
 //!
 //! - [`fit::fit`]: the whole bake (import is the CLI's job): canonical frame, signed-distance
-//!   grid, samples, the Lloyd fit ([`lloyd`]) or the octree baseline ([`octree`]), f32
-//!   rounding that keeps the set bounding, [`hierarchy`], [`skin`], and the [`metrics`].
+//!   grid, samples, the Lloyd fit ([`lloyd`], from medial-axis seeds) and its union-aware
+//!   refinement ([`refine`]) or the octree baseline ([`octree`]), f32 rounding that keeps the
+//!   set bounding, [`hierarchy`], [`skin`], and the [`metrics`]. Target searches
+//!   (`Target::Error`, `Target::Union`) bisect to the smallest requested count that meets them.
 //! - [`asset`]: the `SPHR` asset (sections in `schemas/asset-format.md`).
 //! - [`reference`]: ray-traced shadow references (mesh truth, sphere truth) for
 //!   `penumbra verify shadows`.
@@ -25,6 +27,7 @@ pub mod metrics;
 pub mod octree;
 pub mod powell;
 pub mod reference;
+pub mod refine;
 pub mod samples;
 pub mod skin;
 pub mod sphere;

@@ -3,8 +3,11 @@
 //! the outside volume E (eq. 35) stops decreasing.
 //!
 //! Choices where the paper is silent or where we deviate, and why:
-//! - **Initial centres**: k-means++ seeding (D² sampling, seeded) over the element positions
-//!   instead of uniformly random picks, so that no two seeds start in the same spot.
+//! - **Initial centres** (SHEXP §6.2 picks them at random): by default farthest-point sampling
+//!   over an approximate medial axis (ridge nodes of the distance to the surface), so that
+//!   every seed starts where one sphere bounds a whole cross-section of a tube or plate; or
+//!   k-means++ (D² sampling, seeded) over the element positions, which spreads the seeds but
+//!   mostly over the surface. Measured in docs/spheres.md ("Thin features").
 //! - **Flood fill order**: a FIFO queue over grid cells, seeded with each cluster's nearest
 //!   element, instead of the paper's stack. A stack visits elements depth-first, so a cluster's
 //!   radius jumps to the far end of a chain before nearby elements are seen; breadth-first
@@ -48,12 +51,33 @@ pub struct LloydSettings {
     pub stall_ratio: f64,
     /// Extra Lloyd steps a teleport candidate may take to settle before it is judged.
     pub settle_steps: usize,
+    /// How the initial centres are chosen.
+    pub seeding: Seeding,
+}
+
+/// Initial centres of the Lloyd fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Seeding {
+    /// k-means++ (D² sampling) over all element positions.
+    KMeansPlusPlus,
+    /// Farthest-point sampling over an approximate medial axis: the interior grid nodes whose
+    /// distance to the surface is a local maximum (issue 16).
+    Medial,
 }
 
 impl LloydSettings {
     /// Defaults for `count` spheres.
     pub fn new(count: usize) -> Self {
-        Self { count, iterations: 100, seed: 1, teleport_attempts: 5, stall_ratio: 0.005, settle_steps: 2 }
+        Self {
+            count,
+            iterations: 100,
+            seed: 1,
+            teleport_attempts: 5,
+            stall_ratio: 0.005,
+            settle_steps: 2,
+            seeding: Seeding::KMeansPlusPlus,
+        }
     }
 }
 
@@ -118,11 +142,28 @@ pub fn fit(
     progress: &dyn Progress,
 ) -> LloydOutcome {
     let n = s.count.clamp(1, samples.elements.len().max(1));
+    let centers = match s.seeding {
+        Seeding::KMeansPlusPlus => init_centers(samples, n, s.seed),
+        Seeding::Medial => medial_centers(samples, n).unwrap_or_else(|| init_centers(samples, n, s.seed)),
+    };
+    fit_from(samples, model, volume_t, s, &centers, progress)
+}
+
+/// [`fit`] from given initial centres (their number is the sphere count; `s.count` and
+/// `s.seeding` are not used).
+pub fn fit_from(
+    samples: &Samples,
+    model: &VolumeModel,
+    volume_t: f64,
+    s: &LloydSettings,
+    centers: &[[f64; 3]],
+    progress: &dyn Progress,
+) -> LloydOutcome {
+    let n = centers.len();
     let rel = |e: f64| if volume_t > 0.0 { e / volume_t } else { e };
     let mut log = Vec::new();
     let mut iterations = 1;
-    let centers = init_centers(samples, n, s.seed);
-    let mut best = step(samples, model, &centers, None);
+    let mut best = step(samples, model, centers, None);
     log.push(IterationLog {
         iteration: 1,
         kind: StepKind::Lloyd,
@@ -239,6 +280,100 @@ fn init_centers(samples: &Samples, n: usize, seed: u64) -> Vec<[f64; 3]> {
     centers
 }
 
+/// Medial seeding: farthest-point sampling, from the deepest interior node, over the interior
+/// nodes whose distance to the surface is within 0.3 grid cells of the largest among their 26
+/// neighbours (a ridge of the distance field: the centre line of a tube, the mid-surface of a
+/// plate). Spheres centred there bound a whole cross-section with the least bulge, which is
+/// what thin parts need and what surface-dominated k-means++ seeds miss. `None` when there
+/// are fewer ridge nodes than spheres.
+fn ridge_nodes(samples: &Samples) -> Option<Vec<usize>> {
+    let first = samples.surface_elements;
+    let depth = &samples.interior_depth;
+    if depth.len() != samples.elements.len() - first || depth.is_empty() {
+        return None;
+    }
+    let [nx, ny, nz] = samples.grid_nodes;
+    let mut at = vec![u32::MAX; nx * ny * nz];
+    for (k, &node) in samples.interior_nodes.iter().enumerate() {
+        at[node as usize] = k as u32;
+    }
+    let h = samples.grid_spacing;
+    let mut ridge: Vec<usize> = Vec::new();
+    for (k, &node) in samples.interior_nodes.iter().enumerate() {
+        let node = node as usize;
+        let (i, j, l) = (node % nx, (node / nx) % ny, node / (nx * ny));
+        let mut best = 0.0f64;
+        for dl in -1i64..=1 {
+            for dj in -1i64..=1 {
+                for di in -1i64..=1 {
+                    let (ii, jj, ll) = (i as i64 + di, j as i64 + dj, l as i64 + dl);
+                    if (di, dj, dl) == (0, 0, 0)
+                        || ii < 0
+                        || jj < 0
+                        || ll < 0
+                        || ii >= nx as i64
+                        || jj >= ny as i64
+                        || ll >= nz as i64
+                    {
+                        continue;
+                    }
+                    let m = at[ii as usize + nx * (jj as usize + ny * ll as usize)];
+                    if m != u32::MAX {
+                        best = best.max(depth[m as usize]);
+                    }
+                }
+            }
+        }
+        if depth[k] + 0.3 * h >= best {
+            ridge.push(k);
+        }
+    }
+    Some(ridge)
+}
+
+fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
+    let ridge = ridge_nodes(samples)?;
+    if ridge.len() < n {
+        return None;
+    }
+    let first = samples.surface_elements;
+    let depth = &samples.interior_depth;
+    let start = *ridge.iter().max_by(|&&a, &&b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))?;
+    Some(farthest_points(samples, &ridge, vec![samples.elements[first + start].rep], n))
+}
+
+/// `existing` centres followed by ridge nodes farthest-point sampled from them, `n` in all
+/// (used to spend spheres the refinement dropped); `None` without enough ridge nodes.
+pub fn more_medial_centers(samples: &Samples, existing: &[[f64; 3]], n: usize) -> Option<Vec<[f64; 3]>> {
+    let ridge = ridge_nodes(samples)?;
+    if existing.is_empty() || ridge.len() < n.saturating_sub(existing.len()) {
+        return None;
+    }
+    Some(farthest_points(samples, &ridge, existing.to_vec(), n))
+}
+
+/// Farthest-point sampling over the ridge nodes, continuing from `centers`, up to `n`.
+fn farthest_points(samples: &Samples, ridge: &[usize], mut centers: Vec<[f64; 3]>, n: usize) -> Vec<[f64; 3]> {
+    let first = samples.surface_elements;
+    let pos = |k: usize| samples.elements[first + k].rep;
+    let mut d2: Vec<f64> =
+        ridge.iter().map(|&k| centers.iter().map(|&c| dist2(pos(k), c)).fold(f64::INFINITY, f64::min)).collect();
+    while centers.len() < n {
+        let (mut bi, mut bd) = (0usize, -1.0f64);
+        for (i, &d) in d2.iter().enumerate() {
+            if d > bd {
+                (bi, bd) = (i, d);
+            }
+        }
+        let c = pos(ridge[bi]);
+        centers.push(c);
+        for (i, &k) in ridge.iter().enumerate() {
+            d2[i] = d2[i].min(dist2(pos(k), c));
+        }
+    }
+    centers
+}
+
 /// Clustering from `centers`, then a Powell update of every cluster sphere. A cluster whose
 /// points and starting centre equal those of the same cluster in `prev` keeps its sphere
 /// (Powell would start at its own optimum).
@@ -281,7 +416,7 @@ fn members(samples: &Samples, assign: &[u32], n: usize) -> Vec<Vec<u32>> {
 
 /// Powell's method on the centre, the radius constrained to bound the cluster (SHEXP §6.2).
 /// Returns the sphere and its outside volume.
-fn update_sphere(model: &VolumeModel, points: &[[f64; 3]], start: [f64; 3]) -> (Sphere, f64) {
+pub(crate) fn update_sphere(model: &VolumeModel, points: &[[f64; 3]], start: [f64; 3]) -> (Sphere, f64) {
     if points.is_empty() {
         return (Sphere::new(start, 0.0), 0.0);
     }

@@ -55,6 +55,15 @@ pub struct Samples {
     pub surface_points: usize,
     /// Surface spacing used for subdivision (canonical units).
     pub surface_spacing: f64,
+    /// Grid node of every interior element (in element order after the surface elements).
+    pub interior_nodes: Vec<u32>,
+    /// Distance of every interior element to the surface (canonical units; empty until
+    /// [`Samples::set_depths`]).
+    pub interior_depth: Vec<f64>,
+    /// Grid nodes along x, y, z (for neighbourhoods of interior nodes).
+    pub grid_nodes: [usize; 3],
+    /// Grid spacing (canonical units).
+    pub grid_spacing: f64,
     /// Flood-fill index: elements sorted by cell (`cell_elements[cell_start[c]..cell_start[c+1]]`).
     cell_start: Vec<u32>,
     cell_elements: Vec<u32>,
@@ -128,8 +137,10 @@ impl Samples {
         }
         let surface_elements = elements.len();
         let surface_points = points.len();
+        let mut interior_nodes = Vec::new();
         for n in 0..spec.node_count() {
             if grid.node_inside(n) {
+                interior_nodes.push(n as u32);
                 let [i, j, k] = spec.node_coords(n);
                 let q = spec.node_position(i, j, k);
                 let id = points.len() as u32;
@@ -172,11 +183,23 @@ impl Samples {
             surface_elements,
             surface_points,
             surface_spacing: spacing,
+            interior_nodes,
+            interior_depth: Vec::new(),
+            grid_nodes: spec.nodes,
+            grid_spacing: spec.h,
             cell_start,
             cell_elements,
             elem_cell,
             cells,
         }
+    }
+
+    /// Sets the distance of every interior element to the surface (`bvh` of the canonical mesh).
+    pub fn set_depths(&mut self, bvh: &penumbra_geometry::MeshBvh) {
+        use rayon::prelude::*;
+        let first = self.surface_elements;
+        self.interior_depth =
+            self.elements[first..].par_iter().map(|e| bvh.closest_point(e.rep).map_or(0.0, |c| c.distance)).collect();
     }
 
     /// Number of cells of the flood-fill index.

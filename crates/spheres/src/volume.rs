@@ -157,6 +157,24 @@ impl<'a> VolumeModel<'a> {
         Profile { dr, out }
     }
 
+    /// `V(s − T − ∪ others)`: the outside volume `s` adds to the union of `others` (by the
+    /// ball quadrature; exact sphere tests).
+    pub fn exclusive_outside(&self, s: &Sphere, others: &[Sphere]) -> f64 {
+        if s.radius <= 0.0 {
+            return 0.0;
+        }
+        let near: Vec<&Sphere> =
+            others.iter().filter(|o| crate::sphere::dist(o.center, s.center) < o.radius + s.radius).collect();
+        let mut acc = 0.0;
+        for u in &self.ball {
+            let p = [s.center[0] + s.radius * u[0], s.center[1] + s.radius * u[1], s.center[2] + s.radius * u[2]];
+            if !near.iter().any(|o| o.contains(p)) {
+                acc += 1.0 - self.grid.soft_inside(p);
+            }
+        }
+        s.volume() * acc / self.ball.len() as f64
+    }
+
     /// Fraction of the volume of `s` that lies inside at least one of `others` (by the ball
     /// quadrature; exact sphere tests).
     pub fn overlap_fraction(&self, s: &Sphere, others: &[Sphere]) -> f64 {

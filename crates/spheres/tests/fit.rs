@@ -161,21 +161,82 @@ fn lloyd_union_ratio_beats_the_octree_at_equal_count() {
     );
 }
 
+/// The count a target search returns meets the target and the count one below it was probed
+/// and missed (the search bisects to the boundary, not to the first probe that missed).
+fn assert_minimal(r: &FitResult, target: f64) {
+    let n = r.report.requested_count;
+    assert!(r.spheres.len() <= n, "{} spheres for a request of {n}", r.spheres.len());
+    let search = &r.report.search;
+    let at = |k: usize| search.iter().find(|x| x.0 == k).map(|x| x.1);
+    let mine = at(n).unwrap_or_else(|| panic!("count {n} not in the search {search:?}"));
+    assert!(mine <= target, "{n} spheres: {mine} > {target}; {search:?}");
+    if n > 1 {
+        let below = at(n - 1).unwrap_or_else(|| panic!("count {} was never probed: {search:?}", n - 1));
+        assert!(below > target, "{} spheres already meet {target}: {search:?}", n - 1);
+    }
+    let t = r.report.target.as_ref().expect("a target outcome");
+    assert!(t.met && t.reason.is_none(), "{t:?}");
+}
+
 #[test]
-fn target_error_finds_a_count_meeting_it() {
+fn target_error_bisects_to_the_smallest_count_meeting_it() {
     let mesh = torus([0.0; 3], 1.0, 0.3, 24, 12);
     let mut p = params(1, Method::Lloyd);
     p.grid = 20;
     p.iterations = 12;
     p.target = Target::Error(0.6);
     let r = run(&mesh, &p);
-    assert!(
-        r.metrics.outside_volume_ratio <= 0.6 + 3.0 * r.metrics.outside_volume_ratio_stderr,
-        "{:?}",
-        r.report.search
+    assert_minimal(&r, 0.6);
+    assert_eq!(
+        r.metrics.outside_volume_ratio,
+        r.report.search.iter().find(|x| x.0 == r.report.requested_count).unwrap().1
     );
-    // the search really went through smaller counts that missed it
-    assert!(r.report.search.iter().any(|&(n, e)| n < r.spheres.len() && e > 0.6), "{:?}", r.report.search);
+    // the search went through the doubling and the bisection: more probes than doublings
+    let doublings = r.report.search.iter().filter(|x| x.0.is_power_of_two()).count();
+    assert!(r.report.search.len() > doublings || r.report.requested_count <= 2, "{:?}", r.report.search);
+    assert_bounding(&mesh, &r);
+}
+
+#[test]
+fn target_union_searches_on_the_union_ratio() {
+    let mesh = torus([0.0; 3], 1.0, 0.3, 24, 12);
+    let mut p = params(1, Method::Lloyd);
+    p.grid = 20;
+    p.iterations = 12;
+    p.target = Target::Union(0.5);
+    let r = run(&mesh, &p);
+    assert_minimal(&r, 0.5);
+    assert_eq!(
+        r.metrics.union_outside_ratio,
+        r.report.search.iter().find(|x| x.0 == r.report.requested_count).unwrap().1
+    );
+    assert_eq!(r.report.target.as_ref().unwrap().metric, "union_outside_ratio");
+}
+
+#[test]
+fn unreachable_target_keeps_the_best_set_and_says_why() {
+    let mesh = torus([0.0; 3], 1.0, 0.3, 24, 12);
+    let mut p = params(1, Method::Lloyd);
+    p.grid = 20;
+    p.iterations = 12;
+    p.max_count = 5;
+    p.target = Target::Error(1e-3);
+    let r = run(&mesh, &p);
+    let t = r.report.target.as_ref().unwrap();
+    assert!(!t.met && t.max_count == 5, "{t:?}");
+    assert!(t.reason.as_deref().is_some_and(|s| s.contains("--max-count 5")), "{t:?}");
+    // doubling 1, 2, 4, then the cap 5; the best of them is kept
+    let counts: Vec<usize> = r.report.search.iter().map(|x| x.0).collect();
+    assert_eq!(counts, [1, 2, 4, 5]);
+    let best = r.report.search.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert_eq!(r.report.requested_count, best.0);
+    assert!(r.spheres.len() <= best.0);
+    assert_bounding(&mesh, &r);
+    // a flat sheet has no volume: no ratio to search on, a clear error instead of a search
+    let flat = penumbra_geometry::procedural::grid(6);
+    let e = penumbra_spheres::fit(&scene(flat), &p, &NoProgress).unwrap_err();
+    assert!(matches!(e, penumbra_spheres::SpheresError::NoVolume { .. }), "{e}");
+    assert!(e.to_string().contains("no volume"), "{e}");
 }
 
 #[test]
@@ -200,4 +261,38 @@ fn metrics_agree_with_an_analytic_case() {
         m.union_outside_ratio
     );
     assert!(m.volume_exact && (m.volume - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn thin_shapes_are_bounded_and_medial_refined_fits_beat_the_paper_defaults() {
+    use penumbra_geometry::procedural::{bent_tube, capsule_chain, open_tube, thin_plate};
+    use penumbra_spheres::lloyd::Seeding;
+    for (name, mesh) in [
+        ("bent tube", bent_tube(40)),
+        ("capsule chain", capsule_chain(40)),
+        ("thin plate", thin_plate(40)),
+        ("open tube", open_tube(16, 6)),
+    ] {
+        let r = run(&mesh, &params(16, Method::Lloyd));
+        assert_bounding(&mesh, &r);
+        assert!(r.spheres.len() <= 16 && r.spheres.len() >= 8, "{name}: {}", r.spheres.len());
+    }
+    // the torus (minor/major 0.19, 576 triangles) at 32 spheres: medial seeding and the
+    // union-aware refinement against k-means++ seeding without it (SHEXP's own procedure)
+    let torus = torus([0.0; 3], 1.0, 0.19, 24, 12);
+    let new = run(&torus, &params(32, Method::Lloyd));
+    let mut p = params(32, Method::Lloyd);
+    p.seeding = Seeding::KMeansPlusPlus;
+    p.refine = false;
+    let old = run(&torus, &p);
+    let mut p = params(32, Method::Lloyd);
+    p.seeding = Seeding::KMeansPlusPlus;
+    let refined = run(&torus, &p);
+    assert_bounding(&torus, &new);
+    assert_bounding(&torus, &refined);
+    let (u_new, u_old, u_ref) =
+        (new.metrics.union_outside_ratio, old.metrics.union_outside_ratio, refined.metrics.union_outside_ratio);
+    // the refinement only shrinks spheres: never a larger union than the fit it starts from
+    assert!(u_ref <= u_old + 3.0 * old.metrics.union_outside_ratio_stderr, "{u_ref} vs {u_old}");
+    assert!(u_new < 0.85 * u_old, "medial + refine {u_new} vs k-means++ {u_old} (+ refine {u_ref})");
 }

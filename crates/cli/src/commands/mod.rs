@@ -7,7 +7,9 @@ pub mod inspect;
 pub mod mrt;
 pub mod mrt_level;
 pub mod spheres;
+pub mod sweep;
 pub mod sweep_shadows;
+pub mod sweep_spheres;
 pub mod tables;
 pub mod verify_drt;
 pub mod verify_fiv;
@@ -43,6 +45,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         },
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
+            crate::args::SweepCommand::Spheres(v) => sweep_spheres::run(&v, cli.progress),
         },
         Command::Schema(a) => {
             let s = if a.level {

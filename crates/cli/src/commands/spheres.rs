@@ -58,23 +58,36 @@ fn method_name(m: Method) -> &'static str {
 /// Normalised parameters as JSON (cache key and `meta`).
 fn params_json(job: &SpheresJob) -> Value {
     let p = &job.params;
-    let (count, target_error) = match p.target {
-        Target::Count(n) => (Some(n), None),
-        Target::Error(e) => (None, Some(e)),
+    let (count, target_error, target_union) = match p.target {
+        Target::Count(n) => (Some(n), None, None),
+        Target::Error(e) => (None, Some(e), None),
+        Target::Union(u) => (None, None, Some(u)),
     };
-    json!({
+    let mut v = json!({
         "method": method_name(p.method),
         "count": count,
         "target_error": target_error,
         "grid": p.grid,
         "iterations": p.iterations,
         "seed": p.seed,
+        "seeding": p.seeding,
+        "refine": p.refine,
         "hierarchy": p.hierarchy,
         "skin": p.skin,
         "mesh_name": job.mesh_name,
         "per_sphere_samples": p.metrics.per_sphere_samples,
         "union_samples": p.metrics.union_samples,
-    })
+    });
+    // keys added later appear only when used, so that older cache keys stay valid
+    if let Some(o) = v.as_object_mut() {
+        if target_union.is_some() {
+            o.insert("target_union".into(), json!(target_union));
+        }
+        if count.is_none() {
+            o.insert("max_count".into(), json!(p.max_count));
+        }
+    }
+    v
 }
 
 /// Cache key of a job: tool version, parameters and the mesh bytes.
@@ -138,7 +151,13 @@ fn result_json(r: &FitResult, import: &ImportReport) -> Value {
         "teleports_accepted": rep.teleports_accepted,
         "teleports_rejected": rep.teleports_rejected,
         "e_history": accepted,
-        "search": rep.search.iter().map(|(n, e)| json!({"count": n, "outside_volume_ratio": e})).collect::<Vec<_>>(),
+        "search": rep.search.iter().map(|(n, e)| {
+            let metric = rep.target.as_ref().map_or("outside_volume_ratio", |t| t.metric);
+            json!({"requested_count": n, metric: e})
+        }).collect::<Vec<_>>(),
+        "target_met": rep.target.as_ref().map(|t| t.met),
+        "target_reason": rep.target.as_ref().and_then(|t| t.reason.clone()),
+        "target_max_count": rep.target.as_ref().map(|t| t.max_count),
         "hierarchy_levels": r.hierarchy.as_ref().map(|h| h.levels.len() + 1),
         "hierarchy_nodes": r.hierarchy.as_ref().map(|h| h.levels.iter().map(Vec::len).collect::<Vec<_>>()),
         "skin_coverage_min": r.skin_coverage.as_ref().map(|c| c.min),
@@ -208,16 +227,34 @@ pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, C
 pub fn job_from_args(a: &SpheresFitArgs) -> Result<SpheresJob, CliError> {
     let mesh = a.mesh.clone().ok_or_else(|| CliError::input(anyhow!("a mesh is required")))?;
     let output = a.output.clone().ok_or_else(|| CliError::input(anyhow!("-o OUTPUT is required")))?;
-    let target = match (a.count, a.target_error) {
-        (Some(n), None) => Target::Count(n as usize),
-        (None, Some(e)) => Target::Error(e),
-        _ => return Err(CliError::input(anyhow!("give exactly one of --count N or --target-error E"))),
+    let target = match (a.count, a.target_error, a.target_union) {
+        (Some(n), None, None) => Target::Count(n as usize),
+        (None, Some(e), None) => Target::Error(e),
+        (None, None, Some(u)) => Target::Union(u),
+        _ => {
+            return Err(CliError::input(anyhow!(
+                "give exactly one of --count N, --target-error E or --target-union U"
+            )));
+        }
     };
     let mut params = FitParams::new(target);
+    if let Some(m) = a.max_count {
+        if matches!(target, Target::Count(_)) {
+            return Err(CliError::input(anyhow!(
+                "--max-count caps a --target-error/--target-union search; with --count it has no effect"
+            )));
+        }
+        params.max_count = m as usize;
+    }
     params.method = method(a.method);
     params.grid = a.grid as usize;
     params.iterations = a.iterations as usize;
     params.seed = a.seed;
+    params.seeding = match a.seeding {
+        crate::args::SphereSeeding::Medial => penumbra_spheres::lloyd::Seeding::Medial,
+        crate::args::SphereSeeding::KmeansPlusPlus => penumbra_spheres::lloyd::Seeding::KMeansPlusPlus,
+    };
+    params.refine = !a.no_refine;
     params.hierarchy = a.hierarchy;
     params.skin = a.skin;
     params.metrics.seed = a.seed;
@@ -252,6 +289,7 @@ pub fn run(a: &SpheresArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         o.insert("seconds".into(), json!(out.seconds));
         o.insert("output".into(), json!(job.output.display().to_string()));
     }
+    let missed = out.metrics["target_met"] == json!(false);
     if f.json {
         print_json(&v);
     } else {
@@ -275,6 +313,16 @@ pub fn run(a: &SpheresArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             m["hierarchy_levels"].as_u64().map(|l| format!("  hierarchy levels {l}")).unwrap_or_default(),
             m["skin_coverage_min"].as_f64().map(|c| format!("  posed coverage ≥ {c:.4}")).unwrap_or_default(),
         );
+    }
+    if missed {
+        // DESIGN §2: a bake that ran but missed its requested quality exits 1; the best set
+        // is written
+        eprintln!(
+            "error: {}: target not met: {}",
+            job.mesh.display(),
+            out.metrics["target_reason"].as_str().unwrap_or("unknown reason")
+        );
+        return Ok(ExitCode::QualityGate);
     }
     Ok(ExitCode::Ok)
 }

@@ -6,26 +6,18 @@
 use crate::args::{EnvRotateArg, UpArg};
 use crate::commands::print_json;
 use crate::commands::spheres::{SpheresJob, bake_to as bake_spheres};
+use crate::commands::sweep::{csv_text, parse_list, with_front, write_outputs};
 use crate::commands::tables::{bake_to as bake_tables, params as table_params};
 use crate::commands::verify_shadows::{ExpArg, ReceiverKind, VerifyShadowsArgs, evaluate};
 use crate::exit::{CliError, ExitCode};
-use crate::fsutil::write_atomic_text;
 use crate::progress::ProgressMode;
-use crate::svgplot::{Panel, Series, render};
+use crate::svgplot::{Panel, Series};
 use anyhow::{Context, anyhow};
 use clap::Args;
 use penumbra_spheres::fit::{FitParams, Target};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::time::Instant;
-
-fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>, CliError> {
-    s.split(',')
-        .map(|x| {
-            x.trim().parse::<T>().map_err(|_| CliError::input(anyhow!("--{what}: {x:?} is not a valid value in {s:?}")))
-        })
-        .collect()
-}
 
 /// `penumbra sweep shadows`.
 #[derive(Debug, Args, Clone)]
@@ -193,18 +185,7 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
         "outside_volume_ratio",
         "union_outside_ratio",
     ];
-    let mut csv = cols.join(",") + "\n";
-    for r in &rows {
-        let cells: Vec<String> = cols
-            .iter()
-            .map(|c| match &r[*c] {
-                Value::String(s) => s.clone(),
-                v => v.to_string(),
-            })
-            .collect();
-        csv.push_str(&(cells.join(",") + "\n"));
-    }
-    write_atomic_text(&a.output.join("sweep.csv"), &csv)?;
+    let csv = csv_text(&cols, &rows);
     let series_of = |x: &str| -> Vec<Series> {
         let mut out = Vec::new();
         for &o in &orders {
@@ -234,21 +215,22 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
         a.mesh.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
         a.env.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()
     );
-    let svg = render(&[
-        Panel {
+    let panels = [
+        with_front(Panel {
             title: format!("{title}: error vs bake time"),
             x_label: "bake seconds (spheres + tables)".into(),
             y_label: "NRMSE vs ray-traced mesh".into(),
             series: series_of("bake_seconds"),
-        },
-        Panel {
+            front: Vec::new(),
+        }),
+        with_front(Panel {
             title: "error vs runtime cost (labels: sphere count)".into(),
             x_label: "runtime ns per receiver (one core)".into(),
             y_label: "NRMSE vs ray-traced mesh".into(),
             series: series_of("ns_per_receiver"),
-        },
-    ]);
-    write_atomic_text(&a.output.join("sweep.svg"), &svg)?;
+            front: Vec::new(),
+        }),
+    ];
     let summary = json!({
         "mesh": a.mesh.display().to_string(),
         "env": a.env.display().to_string(),
@@ -260,10 +242,7 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
         "seconds": start.elapsed().as_secs_f64(),
         "output": a.output.display().to_string(),
     });
-    write_atomic_text(
-        &a.output.join("sweep.json"),
-        &(serde_json::to_string_pretty(&summary).map_err(CliError::internal)? + "\n"),
-    )?;
+    write_outputs(&a.output, &csv, &panels, &summary)?;
     if a.json {
         print_json(&summary);
     } else {

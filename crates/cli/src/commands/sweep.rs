@@ -1,0 +1,53 @@
+//! What every `penumbra sweep …` shares: list arguments, the CSV table, the Pareto front of a
+//! panel, and writing `sweep.csv`, `sweep.json` and `sweep.svg` atomically.
+
+use crate::exit::CliError;
+use crate::fsutil::write_atomic_text;
+use crate::svgplot::{Panel, pareto_front, render};
+use anyhow::anyhow;
+use serde_json::Value;
+use std::path::Path;
+
+/// Parses a comma-separated list (`--what` names the option in the error).
+pub fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>, CliError> {
+    s.split(',')
+        .map(|x| {
+            x.trim().parse::<T>().map_err(|_| CliError::input(anyhow!("--{what}: {x:?} is not a valid value in {s:?}")))
+        })
+        .collect()
+}
+
+/// The rows as CSV with the given columns (strings unquoted, everything else as JSON).
+pub fn csv_text(cols: &[&str], rows: &[Value]) -> String {
+    let mut csv = cols.join(",") + "\n";
+    for r in rows {
+        let cells: Vec<String> = cols
+            .iter()
+            .map(|c| match &r[*c] {
+                Value::String(s) => s.clone(),
+                v => v.to_string(),
+            })
+            .collect();
+        csv.push_str(&(cells.join(",") + "\n"));
+    }
+    csv
+}
+
+/// Sets `panel.front` to the Pareto front (both coordinates minimised) of all its points.
+pub fn with_front(mut panel: Panel) -> Panel {
+    let pts: Vec<(f64, f64)> = panel.series.iter().flat_map(|s| s.points.iter().map(|q| (q.0, q.1))).collect();
+    let on = pareto_front(&pts);
+    panel.front = pts.iter().zip(&on).filter(|(_, o)| **o).map(|(p, _)| *p).collect();
+    panel
+}
+
+/// Writes `sweep.csv`, `sweep.svg` and `sweep.json` (pretty, newline-terminated) into `dir`.
+pub fn write_outputs(dir: &Path, csv: &str, panels: &[Panel], summary: &Value) -> Result<(), CliError> {
+    write_atomic_text(&dir.join("sweep.csv"), csv)?;
+    write_atomic_text(&dir.join("sweep.svg"), &render(panels))?;
+    write_atomic_text(
+        &dir.join("sweep.json"),
+        &(serde_json::to_string_pretty(summary).map_err(CliError::internal)? + "\n"),
+    )?;
+    Ok(())
+}

@@ -1,0 +1,98 @@
+//! Fits sphere sets to the thin-feature test shapes and the shared meshes and prints one
+//! markdown row per (mesh, count, method): the table of docs/spheres.md ("Thin features").
+//!
+//! ```sh
+//! cargo run --release -p penumbra-spheres --example fit_table -- [--grid 48] [--counts 16,32,64,128] \
+//!     [--octree] [--no-refine] [--medial] [--iterations 100] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
+//! ```
+//!
+//! Names without a path are procedural shapes (`torus`: minor/major 0.19, 576 triangles) or
+//! meshes of `../shared/data/meshes` (skipped with a message when absent). Times are the fit
+//! alone, in process, on whatever cores are free: note the load next to them.
+
+#![allow(clippy::print_stdout, clippy::print_stderr)]
+
+use std::time::Instant;
+
+use penumbra_geometry::{Scene, TriMesh, load_mesh, procedural};
+use penumbra_math::progress::NoProgress;
+use penumbra_spheres::fit::{FitParams, Method, Target};
+
+fn shape(name: &str) -> Option<TriMesh> {
+    Some(match name {
+        "torus" => procedural::torus([0.0; 3], 1.0, 0.19, 24, 12),
+        "bent-tube" => procedural::bent_tube(64),
+        "thin-plate" => procedural::thin_plate(64),
+        "capsule-chain" => procedural::capsule_chain(64),
+        "open-tube" => procedural::open_tube(24, 12),
+        _ => return None,
+    })
+}
+
+fn main() {
+    let mut grid = 48usize;
+    let mut counts = vec![16usize, 32, 64, 128];
+    let mut methods = vec![Method::Lloyd];
+    let mut refine = true;
+    let mut iterations = 100usize;
+    let mut seeding = penumbra_spheres::lloyd::Seeding::KMeansPlusPlus;
+    let mut names = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--grid" => grid = args.next().and_then(|g| g.parse().ok()).expect("--grid N"),
+            "--counts" => {
+                counts = args.next().expect("--counts").split(',').map(|c| c.parse().expect("count")).collect()
+            }
+            "--octree" => methods.push(Method::Octree),
+            "--no-refine" => refine = false,
+            "--iterations" => iterations = args.next().and_then(|g| g.parse().ok()).expect("--iterations N"),
+            "--medial" => seeding = penumbra_spheres::lloyd::Seeding::Medial,
+            _ => names.push(a),
+        }
+    }
+    let data = penumbra_testkit::shared_data_dir().join("meshes");
+    println!(
+        "threads: {}, grid {grid}, refine {refine}, seeding {seeding:?}, iterations {iterations}",
+        rayon::current_num_threads()
+    );
+    println!("| mesh | triangles | method | N | count | E | union | uncovered pts | s | iterations |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for name in &names {
+        let scene = match shape(name) {
+            Some(mesh) => Scene { mesh, ..Scene::default() },
+            None => {
+                let path = if name.contains('/') { name.into() } else { data.join(format!("{name}.obj")) };
+                match load_mesh(&path) {
+                    Ok((s, _)) => s,
+                    Err(e) => {
+                        eprintln!("skipping {name}: {e}");
+                        continue;
+                    }
+                }
+            }
+        };
+        for &method in &methods {
+            for &n in &counts {
+                let mut p = FitParams::new(Target::Count(n));
+                p.method = method;
+                p.grid = grid;
+                p.refine = refine;
+                p.iterations = iterations;
+                p.seeding = seeding;
+                let t = Instant::now();
+                let r = penumbra_spheres::fit(&scene, &p, &NoProgress).expect("fit");
+                let s = t.elapsed().as_secs_f64() - r.report.finish_seconds;
+                println!(
+                    "| {name} | {} | {method:?} | {n} | {} | {:.3} | {:.3} | {} | {s:.2} | {} |",
+                    scene.mesh.indices.len(),
+                    r.spheres.len(),
+                    r.metrics.outside_volume_ratio,
+                    r.metrics.union_outside_ratio,
+                    r.metrics.uncovered_sample_points,
+                    r.report.iterations,
+                );
+            }
+        }
+    }
+}
