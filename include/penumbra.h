@@ -500,6 +500,17 @@ int32_t pn_mrt_indirect(struct pn_mrt *m,
                         bool interfaces);
 
 /*
+ `b` of every block from the last [`pn_mrt_indirect`] (MRT thesis §4.4: `b = T_d→b l_d`
+ per block): block `x` at `x·k_b_stride`, its shape's `k_b` entries (the rest 0), with
+ `k_b_stride` the level's largest `k_b`. `len` must be `block_count × k_b_stride`; the
+ stride is written to `k_b_stride` when it is not NULL.
+
+ # Safety
+ `m` live; `b` holds `len` floats; `k_b_stride` NULL or writable.
+ */
+int32_t pn_mrt_coefficients(const struct pn_mrt *m, float *b, size_t len, size_t *k_b_stride);
+
+/*
  Multi-bounce indirect light: `bounces` one-bounce evaluations, each fed the previous one's
  result times `albedo_scale` (walls' albedo relative to the dictionary's); their sum into `out`.
 

@@ -98,7 +98,10 @@ pub unsafe extern "C" fn pn_drt_one_bounce(
     channel: u32,
     albedo_scale: f32,
 ) -> i32 {
-    pn_drt_multi_bounce(h, l_d, scene_out, texels, l_dc, clutter_out, clutter_texels, channel, albedo_scale, 0)
+    // SAFETY: the same contract as this function's (forwarded unchanged).
+    unsafe {
+        pn_drt_multi_bounce(h, l_d, scene_out, texels, l_dc, clutter_out, clutter_texels, channel, albedo_scale, 0)
+    }
 }
 
 /// `bounces` bounces through scene and clutter (each fed the previous one's scene and clutter

@@ -121,6 +121,34 @@ pub unsafe extern "C" fn pn_mrt_indirect(
     })
 }
 
+/// `b` of every block from the last [`pn_mrt_indirect`] (MRT thesis §4.4: `b = T_d→b l_d`
+/// per block): block `x` at `x·k_b_stride`, its shape's `k_b` entries (the rest 0), with
+/// `k_b_stride` the level's largest `k_b`. `len` must be `block_count × k_b_stride`; the
+/// stride is written to `k_b_stride` when it is not NULL.
+///
+/// # Safety
+/// `m` live; `b` holds `len` floats; `k_b_stride` NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_mrt_coefficients(m: *const pn_mrt, b: *mut f32, len: usize, k_b_stride: *mut usize) -> i32 {
+    guard(|| {
+        let Some(m) = handle(m) else { return PN_ERR_NULL };
+        let c = m.rt.coefficients();
+        if !k_b_stride.is_null() {
+            let Some(s) = slice_mut(k_b_stride, 1) else { return PN_ERR_NULL };
+            s[0] = m.rt.level().k_b;
+        }
+        if b.is_null() && len == 0 {
+            return PN_OK;
+        }
+        let Some(o) = slice_mut(b, len) else { return PN_ERR_NULL };
+        if len != c.len() {
+            return PN_ERR_SIZE;
+        }
+        o.copy_from_slice(c);
+        PN_OK
+    })
+}
+
 /// Multi-bounce indirect light: `bounces` one-bounce evaluations, each fed the previous one's
 /// result times `albedo_scale` (walls' albedo relative to the dictionary's); their sum into `out`.
 ///

@@ -297,6 +297,20 @@ fn errors_are_reported_not_crashed() {
         let (l_d, mut out) = (vec![1.0f32; nt], vec![0.0f32; nt]);
         assert_eq!(pn_mrt_indirect(m, l_d.as_ptr(), out.as_mut_ptr(), nt - 1, true), PN_ERR_SIZE);
         assert_eq!(pn_mrt_indirect(m, l_d.as_ptr(), out.as_mut_ptr(), nt, true), PN_OK);
+        // b of every block, as the runtime's: b = T_d→b l_d of block 0 computed here
+        let mut stride = 0usize;
+        assert_eq!(pn_mrt_coefficients(m, ptr::null_mut(), 0, &mut stride), PN_OK);
+        let nb = pn_mrt_block_count(m);
+        let mut bv = vec![0.0f32; nb * stride];
+        assert_eq!(pn_mrt_coefficients(m, bv.as_mut_ptr(), bv.len() - 1, ptr::null_mut()), PN_ERR_SIZE);
+        assert_eq!(pn_mrt_coefficients(m, bv.as_mut_ptr(), bv.len(), ptr::null_mut()), PN_OK);
+        let mut sh0 = pn_mrt_shape { n: 0, k_b: 0, u_b: ptr::null(), t_d2b: ptr::null() };
+        assert_eq!(pn_mrt_shape_info(m, pn_mrt_block_shape(m, 0), &mut sh0), PN_OK);
+        let t_d2b = core::slice::from_raw_parts(sh0.t_d2b, sh0.k_b * sh0.n);
+        for i in 0..sh0.k_b {
+            let want: f32 = (0..sh0.n).map(|t| t_d2b[i * sh0.n + t] * l_d[t]).sum();
+            assert!((bv[i] - want).abs() <= 1e-4 * want.abs().max(1e-3), "b[{i}] {} vs {want}", bv[i]);
+        }
         let mut shape = pn_mrt_shape { n: 0, k_b: 0, u_b: ptr::null(), t_d2b: ptr::null() };
         assert_eq!(pn_mrt_shape_info(m, pn_mrt_block_shape(m, 0), &mut shape), PN_OK);
         assert_eq!(pn_mrt_block_offset(m, 1), shape.n);
