@@ -42,6 +42,23 @@ fn drt_bakes_deterministically_and_beats_mrt_alone_on_the_pillars() {
     let a = penumbra_asset::AssetFile::open(&out).unwrap();
     assert_eq!(a.asset().kind().as_str(), "DRTO");
     a.asset().require_known(penumbra_transport::drt_asset::DRTO_SECTIONS).unwrap();
+    // f16 operators (the default) against f32: half the bytes, the same verified error
+    let full = dir.path().join("p32.drto");
+    let (code, v32, stderr) = drt_json(&["--example", "pillars", "--f32"], &d, &full);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(v["bytes"].as_u64().unwrap() < v32["bytes"].as_u64().unwrap());
+    let err_of = |asset: &Path| -> f64 {
+        let (code, stdout, stderr) = run(penumbra()
+            .args(["verify", "drt", "--example", "pillars", "--clutter-res", "4", "--reference-rays", "64", "--json"])
+            .arg("--dict")
+            .arg(&d)
+            .arg("--drt")
+            .arg(asset));
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str::<Value>(&stdout).unwrap()["rel_error_mrt_drt"].as_f64().unwrap()
+    };
+    let (e16, e32) = (err_of(&out), err_of(&full));
+    assert!((e16 - e32).abs() <= 1e-3 * e32, "f16 {e16} vs f32 {e32}");
     // same bytes with one thread
     let again = dir.path().join("again.drto");
     let (code, _, stderr) = run(penumbra()

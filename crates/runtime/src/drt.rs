@@ -17,11 +17,13 @@
 //! clutter's direct light, so wall → clutter → wall paths of every length are kept; only
 //! clutter → clutter light is missing (no DRT operator carries it).
 //!
-//! Everything is f32 and allocation-free after construction.
+//! Everything is f32 and allocation-free after construction (f16 operator sections, written by
+//! `penumbra drt --half`, are widened to f32 once at construction).
 
 use crate::RuntimeError;
 use crate::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
-use penumbra_asset::{Asset, DType};
+use penumbra_asset::{Asset, DType, f16_bits_to_f32};
+use std::borrow::Cow;
 
 fn bad(m: impl Into<String>) -> RuntimeError {
     RuntimeError::Invalid(m.into())
@@ -33,6 +35,19 @@ fn f32s<'a>(a: &Asset<'a>, name: &str) -> Result<(&'a [f32], Vec<usize>), Runtim
         return Err(bad(format!("section {name:?}: expected f32")));
     }
     Ok((s.as_f32().map_err(|e| bad(format!("section {name:?}: {e}")))?, s.dims().to_vec()))
+}
+
+/// An f32 or f16 section as f32: borrowed (zero copy) when stored as f32, widened once at
+/// setup when stored as f16 (`penumbra drt --half`).
+fn floats<'a>(a: &Asset<'a>, name: &str) -> Result<(Cow<'a, [f32]>, Vec<usize>), RuntimeError> {
+    let s = a.section(name).ok_or_else(|| bad(format!("section {name:?} is missing")))?;
+    let e = |x: penumbra_asset::ViewError| bad(format!("section {name:?}: {x}"));
+    let v = match s.dtype() {
+        DType::F32 => Cow::Borrowed(s.as_f32().map_err(e)?),
+        DType::F16 => Cow::Owned(s.as_f16_bits().map_err(e)?.iter().map(|&h| f16_bits_to_f32(h)).collect()),
+        other => return Err(bad(format!("section {name:?}: expected f32 or f16, found {}", other.name()))),
+    };
+    Ok((v, s.dims().to_vec()))
 }
 
 fn u32s<'a>(a: &Asset<'a>, name: &str, cols: usize) -> Result<&'a [u32], RuntimeError> {
@@ -86,9 +101,9 @@ pub struct ReflectOps<'a> {
     /// Chart lists.
     pub charts: &'a [u32],
     /// `A` factors.
-    pub a: &'a [f32],
+    pub a: Cow<'a, [f32]>,
     /// `W` factors.
-    pub w: &'a [f32],
+    pub w: Cow<'a, [f32]>,
 }
 
 impl<'a> ReflectOps<'a> {
@@ -97,8 +112,8 @@ impl<'a> ReflectOps<'a> {
     fn read(a: &Asset<'a>, p: &str, nc: usize, rows_of: &dyn Fn(u32) -> Option<u64>) -> Result<Self, RuntimeError> {
         let rec = u32s(a, &format!("{p}.records"), 7)?;
         let charts = u32s(a, &format!("{p}.charts"), 0)?;
-        let (av, _) = f32s(a, &format!("{p}.a"))?;
-        let (wv, _) = f32s(a, &format!("{p}.w"))?;
+        let (av, _) = floats(a, &format!("{p}.a"))?;
+        let (wv, _) = floats(a, &format!("{p}.w"))?;
         let mut records = Vec::new();
         for r in rec.chunks_exact(7) {
             let x = ReflectRecord { dst: r[0], rows: r[1], rank: r[2], cols: r[3], a: r[4], w: r[5], charts: r[6] };
@@ -168,7 +183,7 @@ pub struct DrtOperators<'a> {
     /// `ΔU_b` records.
     pub du_b_records: Vec<DeltaRecord>,
     /// `ΔU_b` values.
-    pub du_b: &'a [f32],
+    pub du_b: Cow<'a, [f32]>,
     /// `ΔU_c`, per receiving block.
     pub du_c: ReflectOps<'a>,
     /// `C_c`, per instance.
@@ -182,7 +197,7 @@ pub struct DrtOperators<'a> {
     /// Clutter texel positions (world), `[m, 3]`.
     pub positions: &'a [f32],
     /// Clutter texel normals (world), `[m, 3]`.
-    pub normals: &'a [f32],
+    pub normals: Cow<'a, [f32]>,
     /// Per clutter texel: `T_d→c` weight.
     pub t_d2c: &'a [f32],
     /// `C_b` records.
@@ -190,9 +205,9 @@ pub struct DrtOperators<'a> {
     /// Source blocks of the `C_b` records.
     pub c_b_srcs: &'a [u32],
     /// `C_b` factors.
-    pub c_b_a: &'a [f32],
+    pub c_b_a: Cow<'a, [f32]>,
     /// `C_b` factors.
-    pub c_b_w: &'a [f32],
+    pub c_b_w: Cow<'a, [f32]>,
     /// Receiving blocks: block, mask offset, texels.
     pub receivers: &'a [u32],
     /// Inpainting mask.
@@ -209,7 +224,7 @@ impl<'a> DrtOperators<'a> {
         let n_of = |b: u32| d.shapes[l.shapes[b as usize]].n as u64;
         let k_of = |b: u32| d.shapes[l.shapes[b as usize]].k_b as u64;
         let rec = u32s(a, "du_b.records", 5)?;
-        let (du_b, _) = f32s(a, "du_b")?;
+        let (du_b, _) = floats(a, "du_b")?;
         let mut du_b_records = Vec::with_capacity(rec.len() / 5);
         for r in rec.chunks_exact(5) {
             let x = DeltaRecord { dst: r[0], src: r[1], offset: r[2], rows: r[3], cols: r[4] };
@@ -230,7 +245,7 @@ impl<'a> DrtOperators<'a> {
         }
         let (positions, pd) = f32s(a, "clutter.positions")?;
         let m = pd.first().copied().unwrap_or(0);
-        let (normals, nd) = f32s(a, "clutter.normals")?;
+        let (normals, nd) = floats(a, "clutter.normals")?;
         let (t_d2c, wd) = f32s(a, "clutter.t_d2c")?;
         if pd != [m, 3] || nd != [m, 3] || wd != [m] {
             return Err(bad("clutter.positions / normals / t_d2c: dims"));
@@ -251,8 +266,8 @@ impl<'a> DrtOperators<'a> {
         let c_c = ReflectOps::read(a, "c_c", nc, &inst_rows)?;
         let rec = u32s(a, "c_b.records", 7)?;
         let c_b_srcs = u32s(a, "c_b.srcs", 0)?;
-        let (c_b_a, _) = f32s(a, "c_b.a")?;
-        let (c_b_w, _) = f32s(a, "c_b.w")?;
+        let (c_b_a, _) = floats(a, "c_b.a")?;
+        let (c_b_w, _) = floats(a, "c_b.w")?;
         let ni = instances.len() / 4;
         let mut c_b_records = Vec::new();
         for r in rec.chunks_exact(7) {

@@ -111,9 +111,9 @@ pub fn to_asset(
         vals.extend(f32s(&r.op));
     }
     a.add_u32("du_b.records", &[b.du_b.len(), 5], &rec).map_err(err)?;
-    a.add_f32("du_b", &[vals.len()], &vals).map_err(err)?;
+    add_floats(&mut a, "du_b", &vals, b.params.half)?;
 
-    write_reflect(&mut a, "du_c", &b.du_c.iter().collect::<Vec<_>>())?;
+    write_reflect(&mut a, "du_c", &b.du_c.iter().collect::<Vec<_>>(), b.params.half)?;
 
     let ni = clutter.len();
     let mut inst = Vec::new();
@@ -142,7 +142,11 @@ pub fn to_asset(
     let w: Vec<f32> =
         clutter.texels.iter().map(|t| (1.0 / (clutter.charts[t.chart].count as f64).sqrt()) as f32).collect();
     a.add_f32("clutter.positions", &[m, 3], &pos).map_err(err)?;
-    a.add_f32("clutter.normals", &[m, 3], &nor).map_err(err)?;
+    if b.params.half {
+        a.add_f16("clutter.normals", &[m, 3], &nor).map_err(err)?;
+    } else {
+        a.add_f32("clutter.normals", &[m, 3], &nor).map_err(err)?;
+    }
     a.add_u32("clutter.uv", &[m, 4], &uv).map_err(err)?;
     a.add_f32("clutter.t_d2c", &[m], &w).map_err(err)?;
 
@@ -169,16 +173,16 @@ pub fn to_asset(
     }
     a.add_u32("c_b.records", &[b.c_b.len(), 7], &rec).map_err(err)?;
     a.add_u32("c_b.srcs", &[srcs.len()], &srcs).map_err(err)?;
-    a.add_f32("c_b.a", &[av.len()], &av).map_err(err)?;
-    a.add_f32("c_b.w", &[wv.len()], &wv).map_err(err)?;
-    write_reflect(&mut a, "c_c", &b.c_b.iter().map(|g| &g.c_c).collect::<Vec<_>>())?;
+    add_floats(&mut a, "c_b.a", &av, b.params.half)?;
+    add_floats(&mut a, "c_b.w", &wv, b.params.half)?;
+    write_reflect(&mut a, "c_c", &b.c_b.iter().map(|g| &g.c_c).collect::<Vec<_>>(), b.params.half)?;
     Ok(a)
 }
 
 /// A list of factored reflection operators: `<p>.records` u32 [R, 7] = (dst, rows, rank,
 /// cols, a offset, w offset, charts offset), `<p>.charts` u32, `<p>.a` f32 (rows × rank each),
 /// `<p>.w` f32 (rank × cols each).
-fn write_reflect(a: &mut AssetBuilder, p: &str, recs: &[&ReflectRecord]) -> Result<(), TransportError> {
+fn write_reflect(a: &mut AssetBuilder, p: &str, recs: &[&ReflectRecord], half: bool) -> Result<(), TransportError> {
     let mut rec = Vec::new();
     let mut charts = Vec::new();
     let mut av = Vec::new();
@@ -201,7 +205,17 @@ fn write_reflect(a: &mut AssetBuilder, p: &str, recs: &[&ReflectRecord]) -> Resu
     }
     a.add_u32(&format!("{p}.records"), &[recs.len(), 7], &rec).map_err(err)?;
     a.add_u32(&format!("{p}.charts"), &[charts.len()], &charts).map_err(err)?;
-    a.add_f32(&format!("{p}.a"), &[av.len()], &av).map_err(err)?;
-    a.add_f32(&format!("{p}.w"), &[wv.len()], &wv).map_err(err)?;
+    add_floats(a, &format!("{p}.a"), &av, half)?;
+    add_floats(a, &format!("{p}.w"), &wv, half)?;
+    Ok(())
+}
+
+/// A flat operator section, f32 or (with `half`) f16.
+fn add_floats(a: &mut AssetBuilder, name: &str, v: &[f32], half: bool) -> Result<(), TransportError> {
+    if half {
+        a.add_f16(name, &[v.len()], v).map_err(err)?;
+    } else {
+        a.add_f32(name, &[v.len()], v).map_err(err)?;
+    }
     Ok(())
 }

@@ -269,6 +269,10 @@ pub struct DrtBakeArgs {
     /// Seed of the bake's rays.
     #[arg(long, default_value_t = 0)]
     pub ray_seed: u64,
+    /// Store the operators and clutter normals as f32 instead of f16 (f16 halves the bytes and
+    /// changes the verified error by < 1e-5 relative: docs/drt.md).
+    #[arg(long)]
+    pub f32: bool,
 }
 
 impl DrtBakeArgs {
@@ -285,6 +289,7 @@ impl DrtBakeArgs {
             clutter_res: clutter_res as usize,
             clutter_basis_res: clutter_basis_res as usize,
             seed: self.ray_seed,
+            half: !self.f32,
         }
     }
 }

@@ -15,7 +15,7 @@ use penumbra_runtime::drt::{DrtOperators, DrtRuntime, Paths};
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
 use penumbra_transport::drt::{DrtParams, KcMode, Scene};
 use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
-use penumbra_transport::gather::{DirectionSet, sh9};
+use penumbra_transport::gather::sh9;
 use penumbra_transport::level::rotate_y;
 use penumbra_transport::level_reference::{LevelGeometry, PointLight, level_texels};
 use serde_json::{Value, json};
@@ -152,6 +152,7 @@ fn params_of(meta: &Value) -> DrtParams {
         clutter_res: u("clutter_res", 16),
         clutter_basis_res: u("clutter_basis_res", 1),
         seed: p["seed"].as_u64().unwrap_or(0),
+        half: p["half"].as_bool().unwrap_or(true),
     }
 }
 
@@ -460,7 +461,6 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             return Ok(ExitCode::QualityGate);
         }
     }
-    let _ = DirectionSet::cosine(1);
     Ok(ExitCode::Ok)
 }
 
