@@ -21,7 +21,7 @@
 //! `penumbra drt --half`, are widened to f32 once at construction).
 
 use crate::RuntimeError;
-use crate::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+use crate::mrt::{MrtDictionary, MrtLevel, MrtRuntime, dot};
 use penumbra_asset::{Asset, DType, f16_bits_to_f32};
 use std::borrow::Cow;
 
@@ -528,22 +528,4 @@ impl<'a> DrtRuntime<'a> {
         self.scene_out = so;
         self.clutter_out = co;
     }
-}
-
-#[inline]
-fn dot(a: &[f32], b: &[f32]) -> f32 {
-    let mut s = [0.0f32; 4];
-    let (ca, ra) = a.split_at(a.len() & !3);
-    let (cb, rb) = b.split_at(ca.len().min(b.len()));
-    for (x, y) in ca.chunks_exact(4).zip(cb.chunks_exact(4)) {
-        s[0] += x[0] * y[0];
-        s[1] += x[1] * y[1];
-        s[2] += x[2] * y[2];
-        s[3] += x[3] * y[3];
-    }
-    let mut t = (s[0] + s[1]) + (s[2] + s[3]);
-    for (x, y) in ra.iter().zip(rb) {
-        t += x * y;
-    }
-    t
 }

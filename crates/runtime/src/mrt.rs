@@ -406,8 +406,9 @@ impl<'a> MrtRuntime<'a> {
     }
 }
 
+/// `a · b` over the shorter length, with four partial sums (shared by the MRT and DRT runtimes).
 #[inline]
-fn dot(a: &[f32], b: &[f32]) -> f32 {
+pub(crate) fn dot(a: &[f32], b: &[f32]) -> f32 {
     // four partial sums: lets the compiler vectorise without reassociating a single chain
     let mut s = [0.0f32; 4];
     let (ca, ra) = a.split_at(a.len() & !3);

@@ -13,7 +13,7 @@ use penumbra_config::clutter::{BoxFacesName, load_clutter};
 use penumbra_transport::clutter::{BoxFaces, ClutterScene, ClutterShape, ClutterSpec, quat_y};
 use penumbra_transport::drt::{DrtDict, DrtParams, KcMode, bake};
 use penumbra_transport::drt_asset::{DrtInputs, to_asset};
-use penumbra_transport::drt_examples::{EXAMPLES, example};
+use penumbra_transport::drt_examples::example;
 use penumbra_transport::level::{Level, Links};
 use penumbra_transport::level_ops::DictOps;
 use penumbra_transport::level_reference::PointLight;
@@ -81,13 +81,19 @@ fn box_json(s: &ClutterSpec) -> Value {
 }
 
 /// Reads the clutter file's instances (meshes relative to the file).
-fn clutter_from_file(path: &Path, start: usize) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliError> {
+fn clutter_from_file(path: &Path) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliError> {
     let f = load_clutter(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut specs = Vec::new();
     let mut desc = Vec::new();
     for (i, c) in f.clutter.iter().enumerate() {
-        let name = c.name.clone().unwrap_or_else(|| format!("clutter{}", start + i));
+        // unnamed instances are named after their file and entry, so every later error names them
+        let name = c.name.clone().unwrap_or_else(|| {
+            let what = c.mesh.as_deref().unwrap_or("box");
+            // file names only: the asset's meta never holds directories
+            let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+            format!("{file} clutter[{i}], {what}")
+        });
         let rotate = match (c.rotate, c.rotate_y_deg) {
             (Some(q), _) => q,
             (None, Some(d)) => quat_y(d),
@@ -166,7 +172,7 @@ pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
             a.source.seed,
             a.boxes as usize,
         )
-        .map_err(|e| CliError::input(anyhow!("--example {name}: {e} (known: {})", EXAMPLES.join(", "))))?;
+        .map_err(|e| CliError::input(anyhow!("--example {name}: {e}")))?;
         let links = ex
             .level
             .validate(&ops.names, &ops.missing)
@@ -215,7 +221,7 @@ pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
         resolve(a.level.as_deref(), &a.source, &ops)?
     };
     if let Some(p) = &a.clutter {
-        let (s, d) = clutter_from_file(p, specs.len())?;
+        let (s, d) = clutter_from_file(p)?;
         specs.extend(s);
         desc.extend(d);
     }

@@ -4,6 +4,7 @@
 use crate::commands::drt::{DrtBakeArgs, DrtScene, DrtSceneArgs, bake_scene, load_scene};
 use crate::commands::mrt_level::bake as bake_level;
 use crate::commands::print_json;
+use crate::commands::verify_mrt::{default_lights, load_point_lights, median_ms};
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::ensure_parent;
 use crate::progress::{ProgressMode, Reporter};
@@ -96,45 +97,12 @@ fn norm_ratio(a: &[f64], b: &[f64], keep: &[bool]) -> f64 {
     if den > 0.0 { (num / den).sqrt() } else { 0.0 }
 }
 
-fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
-    let mut t: Vec<f64> = (0..reps)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
-}
-
 fn lights(a: &VerifyDrtArgs, sc: &DrtScene, geo: &LevelGeometry<'_>) -> Result<Vec<PointLight>, CliError> {
-    if let Some(p) = &a.lights {
-        let f = penumbra_config::level::load_lights(p)?;
-        if f.lights.is_empty() {
-            return Err(CliError::input(anyhow!("{}: no [[light]]", p.display())));
-        }
-        let mut v = Vec::new();
-        for (i, l) in f.lights.iter().enumerate() {
-            let intensity = l.intensity.unwrap_or(1.0);
-            if !(intensity.is_finite() && intensity > 0.0) || geo.block_of(l.position).is_none() {
-                return Err(CliError::input(anyhow!(
-                    "{}: light {i} at {:?} must have a positive intensity and lie inside a block",
-                    p.display(),
-                    l.position
-                )));
-            }
-            v.push(PointLight { position: l.position, intensity });
-        }
-        return Ok(v);
+    match (&a.lights, &sc.example_lights) {
+        (Some(p), _) => load_point_lights(p, geo),
+        (None, Some(l)) => Ok(l.clone()),
+        (None, None) => Ok(default_lights(&sc.level)),
     }
-    if let Some(l) = &sc.example_lights {
-        return Ok(l.clone());
-    }
-    Ok((0..sc.level.blocks.len())
-        .step_by(8)
-        .map(|b| PointLight { position: sc.level.blocks[b].to_world([0.5; 3]), intensity: 1.0 })
-        .collect())
 }
 
 /// Parameters recorded in a DRTO's meta.
@@ -262,8 +230,6 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             (bake_scene(&sc, &params, mode)?.1, params)
         }
     };
-    // the same operators without inpainting, for the comparison
-    let no_inpaint_bytes = bake_scene(&sc, &DrtParams { inpaint: false, ..params.clone() }, ProgressMode::None)?.1;
     let level_bytes = match &sc.level_asset {
         Some((b, _)) => b.clone(),
         None => bake_level(&sc.level, &sc.links, &sc.ops, a.max_depth as usize, None)?.1,
@@ -279,12 +245,8 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
     let drt_asset = OwnedAsset::parse(&drt_bytes).map_err(CliError::internal)?;
     let da = drt_asset.asset();
     let ops = DrtOperators::from_asset(&da, &rd, &rl).map_err(|e| CliError::input(anyhow!("DRT operators: {e}")))?;
-    let ni_asset = OwnedAsset::parse(&no_inpaint_bytes).map_err(CliError::internal)?;
-    let nia = ni_asset.asset();
-    let ops_ni = DrtOperators::from_asset(&nia, &rd, &rl).map_err(CliError::internal)?;
     let mut mrt = MrtRuntime::new(rd, rl);
     let mut drt = DrtRuntime::new(ops, &mrt);
-    let mut drt_ni = DrtRuntime::new(ops_ni, &mrt);
 
     let geo = LevelGeometry { level: &sc.level, links: &sc.links, missing: &sc.ops.missing };
     let scene = Scene::new(geo.clone(), &sc.clutter, &sc.dict);
@@ -338,8 +300,6 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         &mut s_occ,
         &mut c_occ,
     );
-    let (mut s_ni, mut c_ni) = (vec![0.0f32; n], vec![0.0f32; m]);
-    drt_ni.one_bounce(&mut mrt, &l_d, &l_dc, ch, scale, Paths::ALL, &mut s_ni, &mut c_ni);
     let (mut s_multi, mut c_multi) = (vec![0.0f32; n], vec![0.0f32; m]);
     drt.multi_bounce(&mut mrt, &l_d, &l_dc, ch, scale, a.bounces as usize, &mut s_multi, &mut c_multi);
     let ms_runtime =
@@ -347,7 +307,7 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
     let mut scratch = vec![0.0f32; n];
     let ms_mrt = median_ms(21, || mrt.indirect(&l_d, &mut scratch, true));
     let to64 = |v: &[f32]| -> Vec<f64> { v.iter().map(|&x| f64::from(x)).collect() };
-    let (s_drt, c_drt, s_occ, s_ni, s_multi) = (to64(&s_drt), to64(&c_drt), to64(&s_occ), to64(&s_ni), to64(&s_multi));
+    let (s_drt, c_drt, s_occ, s_multi) = (to64(&s_drt), to64(&c_drt), to64(&s_occ), to64(&s_multi));
     let mrt_multi: Vec<f64> = mrt_multi.iter().map(|&x| f64::from(x)).collect();
     let probes = probe_irradiance(&dict_asset, &sc, &b_one, kb, &recv[n..])?
         .into_iter()
@@ -411,7 +371,6 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         "rel_error_mrt": rel(&mrt_one, r1, &keep),
         "rel_error_mrt_drt": rel(&s_drt, r1, &keep),
         "rel_error_mrt_drt_occlusion_only": rel(&s_occ, r1, &keep),
-        "rel_error_mrt_drt_without_inpainting": rel(&s_ni, r1, &keep),
         "rel_error_mrt_multi_bounce": rel(&mrt_multi, rm, &keep),
         "rel_error_mrt_drt_multi_bounce": rel(&s_multi, rm, &keep),
         "rel_error_clutter_cb": rel(&c_drt, rc1, cm),
@@ -436,7 +395,7 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         print_json(&v);
     } else {
         eprintln!(
-            "{}: {} blocks, {n} texels ({inside} inside clutter), {} clutter instances ({m} texels), {} lights\n  one bounce: MRT {:.4}, MRT + DRT {:.4} (occlusion only {:.4}, without inpainting {:.4}; reference noise {:.4})\n  {} bounces: MRT {:.4}, MRT + DRT {:.4}\n  clutter: C_b {:.4}, MRT probes {:.4}\n  runtime {:.3} ms MRT + DRT ({:.3} ms MRT alone, one thread)",
+            "{}: {} blocks, {n} texels ({inside} inside clutter), {} clutter instances ({m} texels), {} lights\n  one bounce: MRT {:.4}, MRT + DRT {:.4} (occlusion only {:.4}; reference noise {:.4})\n  {} bounces: MRT {:.4}, MRT + DRT {:.4}\n  clutter: C_b {:.4}, MRT probes {:.4}\n  runtime {:.3} ms MRT + DRT ({:.3} ms MRT alone, one thread)",
             sc.what,
             sc.level.blocks.len(),
             sc.clutter.len(),
@@ -444,7 +403,6 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             f("rel_error_mrt"),
             f("rel_error_mrt_drt"),
             f("rel_error_mrt_drt_occlusion_only"),
-            f("rel_error_mrt_drt_without_inpainting"),
             f("reference_noise"),
             a.bounces,
             f("rel_error_mrt_multi_bounce"),

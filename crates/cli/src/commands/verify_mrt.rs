@@ -74,8 +74,38 @@ fn norm_ratio(a: &[f64], b: &[f64]) -> f64 {
     if den > 0.0 { (num / den).sqrt() } else { 0.0 }
 }
 
+/// Point lights of a lights file (TOML `[[light]]`), each checked to lie inside a block of the
+/// level and to have a positive intensity (shared by `verify mrt` and `verify drt`).
+pub fn load_point_lights(p: &std::path::Path, geo: &LevelGeometry<'_>) -> Result<Vec<PointLight>, CliError> {
+    let f = penumbra_config::level::load_lights(p)?;
+    if f.lights.is_empty() {
+        return Err(CliError::input(anyhow!("{}: no [[light]]", p.display())));
+    }
+    let mut v = Vec::new();
+    for (i, l) in f.lights.iter().enumerate() {
+        let intensity = l.intensity.unwrap_or(1.0);
+        if !(intensity.is_finite() && intensity > 0.0) || geo.block_of(l.position).is_none() {
+            return Err(CliError::input(anyhow!(
+                "{}: light {i} at {:?} must have a positive intensity and lie inside a block",
+                p.display(),
+                l.position
+            )));
+        }
+        v.push(PointLight { position: l.position, intensity });
+    }
+    Ok(v)
+}
+
+/// The default lights: intensity 1 at the centre of block 0 and of every 8th block after it.
+pub fn default_lights(level: &Level) -> Vec<PointLight> {
+    (0..level.blocks.len())
+        .step_by(8)
+        .map(|b| PointLight { position: level.blocks[b].to_world([0.5, 0.5, 0.5]), intensity: 1.0 })
+        .collect()
+}
+
 /// Median wall time of `f` over `reps` runs, in ms.
-fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
+pub fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
     let mut t: Vec<f64> = (0..reps)
         .map(|_| {
             let s = Instant::now();
@@ -135,29 +165,8 @@ pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
     };
     let geo = LevelGeometry { level: &level, links: &links, missing: &d.missing };
     let lights: Vec<PointLight> = match &a.lights {
-        Some(p) => {
-            let f = penumbra_config::level::load_lights(p)?;
-            if f.lights.is_empty() {
-                return Err(CliError::input(anyhow!("{}: no [[light]]", p.display())));
-            }
-            let mut v = Vec::new();
-            for (i, l) in f.lights.iter().enumerate() {
-                let intensity = l.intensity.unwrap_or(1.0);
-                if !(intensity.is_finite() && intensity > 0.0) || geo.block_of(l.position).is_none() {
-                    return Err(CliError::input(anyhow!(
-                        "{}: light {i} at {:?} must have a positive intensity and lie inside a block",
-                        p.display(),
-                        l.position
-                    )));
-                }
-                v.push(PointLight { position: l.position, intensity });
-            }
-            v
-        }
-        None => (0..level.blocks.len())
-            .step_by(8)
-            .map(|b| PointLight { position: level.blocks[b].to_world([0.5, 0.5, 0.5]), intensity: 1.0 })
-            .collect(),
+        Some(p) => load_point_lights(p, &geo)?,
+        None => default_lights(&level),
     };
     // the level operators, through the asset bytes the runtime reads
     let (max_depth, bytes) = match baked {
