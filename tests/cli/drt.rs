@@ -171,3 +171,45 @@ fn clutter_schema_is_committed_and_fresh() {
         .expect("schemas/clutter.schema.json (run `make schemas`)");
     assert_eq!(stdout, committed, "schemas/clutter.schema.json is stale: run `make schemas`");
 }
+
+/// `--shard K/N` over blocks and instances, then `drt merge` (any order): the bytes of one
+/// run (on a maze, where several blocks receive and the instances spread over shards), and
+/// clean refusals of incomplete or mixed shard sets; a shard is refused by the runtime.
+#[test]
+fn drt_shards_merge_to_the_single_run_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let scene = ["--example", "maze-boxes", "--maze", "4", "--seed", "2", "--boxes", "5"];
+    let whole = dir.path().join("w.drto");
+    let (code, v, stderr) = drt_json(&scene, &d, &whole);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(v["blocks"].as_u64().unwrap() >= 2, "{v}");
+    let mut parts = Vec::new();
+    for k in 0..3 {
+        let p = dir.path().join(format!("s{k}.drto"));
+        let shard = format!("{k}/3");
+        let mut args = scene.to_vec();
+        args.extend(["--shard", &shard]);
+        let (code, v, stderr) = drt_json(&args, &d, &p);
+        assert_eq!(code, 0, "{stderr}");
+        assert_eq!(v["shard"]["index"], k, "{v}");
+        parts.push(p);
+    }
+    let merged = dir.path().join("m.drto");
+    let (code, _, stderr) =
+        run(penumbra().args(["drt", "merge"]).arg(&parts[2]).arg(&parts[0]).arg(&parts[1]).arg("-o").arg(&merged));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(std::fs::read(&whole).unwrap() == std::fs::read(&merged).unwrap(), "merged bytes differ from one run");
+    // a missing shard, and a whole bake given as a shard: exit 2, nothing written
+    let bad = dir.path().join("bad.drto");
+    let (code, _, stderr) = run(penumbra().args(["drt", "merge"]).arg(&parts[0]).arg(&parts[1]).arg("-o").arg(&bad));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("exactly once"), "{stderr}");
+    let (code, _, stderr) = run(penumbra().args(["drt", "merge"]).arg(&whole).arg("-o").arg(&bad));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("not a shard"), "{stderr}");
+    assert!(!bad.exists());
+    // a shard does not pass as an operator set
+    let f = penumbra_asset::AssetFile::open(&parts[0]).unwrap();
+    assert!(f.asset().require_known(penumbra_transport::drt_asset::DRTO_SECTIONS).is_err());
+}

@@ -353,6 +353,9 @@ pub struct DrtStage {
     /// Rays per texel, 16..=1048576 (default 1024).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rays: Option<u32>,
+    /// Rays per clutter texel, 16..=1048576 (default: `rays`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clutter_rays: Option<u32>,
     /// Receiving blocks within this many hops of clutter, 0..=16 (default 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub neighborhood: Option<u32>,

@@ -250,6 +250,7 @@ fn validate_drt(d: &crate::types::DrtStage, c: &crate::types::BakeConfig, out: &
     }
     for (key, v, lo, hi) in [
         ("drt.rays", d.rays, 16, 1 << 20),
+        ("drt.clutter_rays", d.clutter_rays, 16, 1 << 20),
         ("drt.neighborhood", d.neighborhood, 0, 16),
         ("drt.kc", d.kc, 1, 256),
         ("drt.kdc", d.kdc, 1, 4096),

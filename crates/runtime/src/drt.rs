@@ -220,6 +220,13 @@ impl<'a> DrtOperators<'a> {
         if a.kind().as_str() != "DRTO" {
             return Err(RuntimeError::WrongKind { expected: "DRTO", found: a.kind().as_str().to_string() });
         }
+        // a shard (`penumbra drt --shard K/N`) holds some records only: refuse it (its `shard`
+        // section is critical: a reader that does not know it must not use the asset)
+        if a.sections().iter().any(|s| s.is_critical() && s.name() != "meta") {
+            return Err(bad(
+                "the asset has a critical section this runtime does not know (a shard of a bake? merge the shards with `penumbra drt merge`)",
+            ));
+        }
         let nb = l.shapes.len();
         let n_of = |b: u32| d.shapes[l.shapes[b as usize]].n as u64;
         let k_of = |b: u32| d.shapes[l.shapes[b as usize]].k_b as u64;

@@ -197,6 +197,130 @@ pub struct ClutterScene {
     bvh: Option<MeshBvh>,
     /// Per instance: its own BVH and the global index of its first triangle.
     inst_bvh: Vec<(MeshBvh, usize)>,
+    /// Per instance: the analytic form of a box (ray queries without the BVH).
+    inst_box: Vec<Option<BoxGeom>>,
+    /// `bounds`, padded ([`pad_box`]).
+    padded: Vec<[[f64; 3]; 2]>,
+}
+
+/// A placed clutter box in the form ray queries need: the ray goes into the box's frame and
+/// meets the slabs there (the same surface as its triangles, without a BVH descent).
+#[derive(Debug, Clone, Copy)]
+struct BoxGeom {
+    /// Inverse rotation (conjugate quaternion).
+    inv_rot: [f64; 4],
+    translate: [f64; 3],
+    inv_scale: f64,
+    size: [f64; 3],
+    /// Per cube face: its rank among the present faces, `usize::MAX` when absent.
+    slot: [usize; 6],
+    /// Global chart of the first face's first chart.
+    chart0: usize,
+    /// Charts per face edge.
+    sub: usize,
+    /// World outward normal per face.
+    normal: [[f64; 3]; 6],
+}
+
+impl BoxGeom {
+    fn new(spec: &ClutterSpec, size: [f64; 3], faces: BoxFaces, sub: usize, chart0: usize) -> Self {
+        let q = spec.rotate;
+        let mut slot = [usize::MAX; 6];
+        let mut normal = [[0.0; 3]; 6];
+        let mut r = 0;
+        for (f, n) in normal.iter_mut().enumerate() {
+            let (_, u, v) = box_face(size, f);
+            *n = normalize(spec.dir_to_world(normalize(cross(u, v))));
+            if !(f == 2 && faces == BoxFaces::NoBottom) {
+                slot[f] = r;
+                r += 1;
+            }
+        }
+        Self {
+            inv_rot: [-q[0], -q[1], -q[2], q[3]],
+            translate: spec.translate,
+            inv_scale: 1.0 / spec.scale,
+            size,
+            slot,
+            chart0,
+            sub,
+            normal,
+        }
+    }
+
+    /// The first surface the ray `o + t·d`, `t ∈ [tmin, tmax]`, meets: `(t, face)`. A ray
+    /// that enters through the missing bottom meets the inside of the face it leaves by.
+    fn hit(&self, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Option<(f64, usize)> {
+        let s = self.inv_scale;
+        let ol = rotate(self.inv_rot, sub(o, self.translate)).map(|x| x * s);
+        let dl = rotate(self.inv_rot, d).map(|x| x * s);
+        let lo = [-0.5 * self.size[0], 0.0, -0.5 * self.size[2]];
+        let hi = [0.5 * self.size[0], self.size[1], 0.5 * self.size[2]];
+        let (mut tn, mut tf) = (f64::NEG_INFINITY, f64::INFINITY);
+        let (mut fin, mut fout) = (usize::MAX, usize::MAX);
+        for k in 0..3 {
+            if dl[k] == 0.0 {
+                if ol[k] < lo[k] || ol[k] > hi[k] {
+                    return None;
+                }
+                continue;
+            }
+            let inv = 1.0 / dl[k];
+            let (a, b) = ((lo[k] - ol[k]) * inv, (hi[k] - ol[k]) * inv);
+            // entering through the low side when moving up the axis
+            let (near, far, fnear, ffar) = if inv > 0.0 { (a, b, 2 * k, 2 * k + 1) } else { (b, a, 2 * k + 1, 2 * k) };
+            if near > tn {
+                tn = near;
+                fin = fnear;
+            }
+            if far < tf {
+                tf = far;
+                fout = ffar;
+            }
+        }
+        if tn > tf || tf < tmin || fout == usize::MAX {
+            return None;
+        }
+        if tn >= tmin && fin != usize::MAX && self.slot[fin] != usize::MAX {
+            return (tn <= tmax).then_some((tn, fin));
+        }
+        // inside the box, or entering through the missing face: the face it leaves by
+        (self.slot[fout] != usize::MAX && tf <= tmax).then_some((tf, fout))
+    }
+
+    /// Global chart of the point `p` (world) on face `f`.
+    fn chart(&self, p: [f64; 3], f: usize) -> usize {
+        let pl = rotate(self.inv_rot, sub(p, self.translate)).map(|x| x * self.inv_scale);
+        let (o, u, v) = box_face(self.size, f);
+        let w = sub(pl, o);
+        let n = self.sub as f64;
+        let cell = |e: [f64; 3]| ((dot(w, e) / dot(e, e) * n).floor().max(0.0) as usize).min(self.sub - 1);
+        self.chart0 + self.slot[f] * self.sub * self.sub + cell(v) * self.sub + cell(u)
+    }
+}
+
+/// [`slab`] on a box padded in advance ([`pad_box`]) with the direction's reciprocals
+/// `inv = 1/d` (±∞ for a zero component: the NaN of `0·∞` fails both comparisons below only
+/// when the origin lies exactly on a face plane, which the padding keeps away from).
+#[inline]
+fn slab_inv(&[lo, hi]: &[[f64; 3]; 2], o: [f64; 3], inv: [f64; 3], mut t0: f64, mut t1: f64) -> bool {
+    for k in 0..3 {
+        let (a, b) = ((lo[k] - o[k]) * inv[k], (hi[k] - o[k]) * inv[k]);
+        let (a, b) = if a > b { (b, a) } else { (a, b) };
+        // a NaN (origin on a padded plane with a zero component) keeps the interval open
+        t0 = if a > t0 { a } else { t0 };
+        t1 = if b < t1 { b } else { t1 };
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// The box `[lo, hi]` padded by a hair ([`slab`]'s padding).
+fn pad_box(&[lo, hi]: &[[f64; 3]; 2]) -> [[f64; 3]; 2] {
+    let pad = |k: usize| 1e-9 * (1.0 + lo[k].abs().max(hi[k].abs()));
+    [core::array::from_fn(|k| lo[k] - pad(k)), core::array::from_fn(|k| hi[k] + pad(k))]
 }
 
 /// Whether the ray `o + t·d`, `t ∈ [t0, t1]`, meets the box `[lo, hi]` (padded by a hair so
@@ -440,6 +564,7 @@ impl ClutterScene {
         let mut tri_chart = Vec::new();
         let mut tri_normal = Vec::new();
         let mut inst_bvh = Vec::new();
+        let mut inst_box = Vec::new();
         for (i, s) in specs.iter().enumerate() {
             let mut s = s.clone();
             s.rotate = s.validate(i)?;
@@ -449,6 +574,10 @@ impl ClutterScene {
             };
             let first = texels.len();
             let chart0 = charts.len();
+            inst_box.push(match &s.shape {
+                ClutterShape::Box { size, faces } => Some(BoxGeom::new(&s, *size, *faces, per_face, chart0)),
+                ClutterShape::Mesh(_) => None,
+            });
             for ct in &built.charts {
                 if ct.is_empty() {
                     continue;
@@ -501,6 +630,7 @@ impl ClutterScene {
             out_specs.push(s);
         }
         let mesh = TriMesh { positions, indices };
+        let padded = bounds.iter().map(pad_box).collect();
         let bvh = if mesh.indices.is_empty() {
             None
         } else {
@@ -517,6 +647,8 @@ impl ClutterScene {
             tri_normal,
             bvh,
             inst_bvh,
+            padded,
+            inst_box,
         })
     }
 
@@ -534,6 +666,8 @@ impl ClutterScene {
             tri_normal: Vec::new(),
             bvh: None,
             inst_bvh: Vec::new(),
+            inst_box: Vec::new(),
+            padded: Vec::new(),
         }
     }
 
@@ -571,12 +705,61 @@ impl ClutterScene {
     /// The closest hit among the instances `insts` along the unit ray `o + t·d`,
     /// `t ∈ [tmin, tmax]` (each instance's box first, then its own BVH).
     pub fn closest_among(&self, insts: &[usize], o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Option<ClutterHit> {
+        // (t, global triangle or usize::MAX for a box, instance, box face)
+        let mut best: Option<(f64, usize, usize, usize)> = None;
+        let inv = d.map(|x| 1.0 / x);
+        for &i in insts {
+            let hi = best.map_or(tmax, |b| b.0);
+            if !slab_inv(&self.padded[i], o, inv, tmin, hi) {
+                continue;
+            }
+            if let Some(bx) = &self.inst_box[i] {
+                if let Some((t, f)) = bx.hit(o, d, tmin, hi)
+                    && best.is_none_or(|b| t < b.0)
+                {
+                    best = Some((t, usize::MAX, i, f));
+                }
+                continue;
+            }
+            let (bvh, tri0) = &self.inst_bvh[i];
+            if let Some(h) = bvh.closest_hit(&Ray::new(o, d).with_range(tmin, hi)) {
+                let g = tri0 + h.triangle as usize;
+                if best.is_none_or(|b| h.t < b.0 || (h.t == b.0 && g < b.1)) {
+                    best = Some((h.t, g, i, 0));
+                }
+            }
+        }
+        let (t, tri, i, f) = best?;
+        let point = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+        if tri == usize::MAX {
+            let bx = self.inst_box[i].as_ref()?;
+            let n = bx.normal[f];
+            return Some(ClutterHit { t, chart: bx.chart(point, f), front: dot(n, d) < 0.0, point, normal: n });
+        }
+        let n = self.tri_normal[tri];
+        let c = self.tri_chart[tri];
+        Some(ClutterHit {
+            t,
+            chart: if c == u32::MAX { usize::MAX } else { c as usize },
+            front: dot(n, d) < 0.0 && c != u32::MAX,
+            point,
+            normal: n,
+        })
+    }
+
+    /// [`ClutterScene::closest_among`] through the instances' triangle BVHs only (the
+    /// reference the analytic box queries are tested against).
+    pub fn closest_among_triangles(
+        &self,
+        insts: &[usize],
+        o: [f64; 3],
+        d: [f64; 3],
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ClutterHit> {
         let mut best: Option<(f64, usize)> = None;
         for &i in insts {
             let hi = best.map_or(tmax, |b| b.0);
-            if !slab(&self.bounds[i], o, d, tmin, hi) {
-                continue;
-            }
             let (bvh, tri0) = &self.inst_bvh[i];
             if let Some(h) = bvh.closest_hit(&Ray::new(o, d).with_range(tmin, hi)) {
                 let g = tri0 + h.triangle as usize;
@@ -672,5 +855,45 @@ mod tests {
         let mut p = pillar([0.0; 3], 0.0);
         p.rotate = [0.0, 0.0, 0.0, 2.0];
         assert!(ClutterScene::new(&[p], 4).unwrap_err().to_string().contains("quaternion"));
+    }
+
+    /// The analytic box queries meet the same surface as the boxes' triangles: same distance,
+    /// chart and side, for rays from outside, from inside and up through the open bottom.
+    #[test]
+    fn analytic_box_hits_equal_the_triangle_hits() {
+        use penumbra_math::rng::{hash4, unit_f64};
+        let mut specs = vec![pillar([0.3, 0.0, 0.6], 30.0), pillar([0.7, 0.1, 0.3], -71.0)];
+        specs[1].shape = ClutterShape::Box { size: [0.15, 0.3, 0.25], faces: BoxFaces::All };
+        specs[1].scale = 1.7;
+        specs[1].rotate = [0.2, 0.3, -0.1, (1.0f64 - 0.04 - 0.09 - 0.01).sqrt()];
+        let s = ClutterScene::with_basis(&specs, 8, 2).unwrap();
+        let all = [0, 1];
+        let (mut hits, mut backs) = (0, 0);
+        for r in 0..20_000u64 {
+            let u = |j: u64| unit_f64(hash4(11, 5, r, j));
+            // origins in and around both boxes, some below the open bottom
+            let o = [u(0) * 1.2 - 0.1, u(1) * 0.9 - 0.1, u(2) * 1.2 - 0.1];
+            let z = 2.0 * u(3) - 1.0;
+            let ph = 2.0 * core::f64::consts::PI * u(4);
+            let rr = (1.0 - z * z).sqrt();
+            let d = [rr * ph.cos(), z, rr * ph.sin()];
+            let a = s.closest_among(&all, o, d, 1e-9, 10.0);
+            let b = s.closest_among_triangles(&all, o, d, 1e-9, 10.0);
+            match (a, b) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    backs += usize::from(!b.front);
+                    assert!((a.t - b.t).abs() < 1e-9, "ray {r}: t {} vs {}", a.t, b.t);
+                    assert_eq!(a.front, b.front, "ray {r}");
+                    if b.front {
+                        assert_eq!(a.chart, b.chart, "ray {r} at {:?}", b.point);
+                    }
+                    assert!(dot(a.normal, b.normal) > 1.0 - 1e-9, "ray {r}");
+                }
+                (a, b) => panic!("ray {r} from {o:?} dir {d:?}: analytic {a:?}, triangles {b:?}"),
+            }
+        }
+        assert!(hits > 2000 && backs > 100, "hits {hits}, back hits {backs}");
     }
 }

@@ -101,8 +101,11 @@ impl KcMode {
 /// Bake parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DrtParams {
-    /// Rays per texel (thesis: 1024).
+    /// Rays per scene texel (thesis: 1024).
     pub rays: usize,
+    /// Rays per clutter texel (`C_b`, `C_c`; thesis: the same 1024). Fewer suffice for the
+    /// rank-`k_c` gather on large scenes (docs/drt.md, measured).
+    pub clutter_rays: usize,
     /// Receiving blocks: within this many connection hops of a cluttered block.
     pub neighborhood: usize,
     /// Rank of `C_b` and `C_c` (thesis: 5 for `C_b`).
@@ -130,6 +133,7 @@ impl Default for DrtParams {
     fn default() -> Self {
         Self {
             rays: 1024,
+            clutter_rays: 1024,
             neighborhood: 1,
             k_c: 5,
             k_dc: 32,
@@ -152,6 +156,9 @@ impl DrtParams {
         if !(16..=1 << 20).contains(&self.rays) {
             return bad("rays", self.rays.to_string(), "16..=1048576");
         }
+        if !(16..=1 << 20).contains(&self.clutter_rays) {
+            return bad("clutter_rays", self.clutter_rays.to_string(), "16..=1048576");
+        }
         if self.neighborhood > 16 {
             return bad("neighborhood", self.neighborhood.to_string(), "0..=16");
         }
@@ -171,6 +178,7 @@ impl DrtParams {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
             "rays": self.rays,
+            "clutter_rays": self.clutter_rays,
             "neighborhood": self.neighborhood,
             "k_c": self.k_c,
             "k_dc": self.k_dc,
@@ -326,35 +334,64 @@ impl ReflectRecord {
             self.truncation_rel_error = 0.0;
             return Ok(());
         }
-        let (a, w, r) = truncated(&self.op, rows, cols, k)?;
-        self.truncation_rel_error = factored_error(&self.op, &a, &w, rows, cols, r);
+        let (a, w, r, err) = truncated(&self.op, rows, cols, k)?;
+        self.truncation_rel_error = err;
         (self.a, self.w, self.rank) = (a, w, r);
         Ok(())
     }
 }
 
 /// Best rank-`k` factors `A = U Σ` (`rows × r`), `W = Vᵀ` (`r × cols`) of a row-major matrix;
-/// `r ≤ k` drops singular values below `10⁻¹²·σ₁`.
-fn truncated(op: &[f64], rows: usize, cols: usize, k: usize) -> Result<(Vec<f64>, Vec<f64>, usize), TransportError> {
+/// `r ≤ k` drops singular values below `10⁻¹²·σ₁`. Also returns `‖op − A W‖_F / ‖op‖_F`,
+/// which for a truncated SVD is `√(Σ_{c≥r} σ_c² / Σ σ_c²)` (Eckart–Young), with no product.
+fn truncated(op: &[f64], rows: usize, cols: usize, k: usize) -> Result<Factors, TransportError> {
     if rows == 0 || cols == 0 {
-        return Ok((Vec::new(), Vec::new(), 0));
+        return Ok((Vec::new(), Vec::new(), 0, 0.0));
     }
-    let cm = Mat::from_fn(rows, cols, |i, j| op[i * cols + j]);
-    let d = thin_svd(cm.as_ref())?;
-    let s0 = d.s.first().copied().unwrap_or(0.0);
-    let r = k.min(d.s.iter().filter(|&&x| x > 1e-12 * s0 && x > 0.0).count());
+    let m = faer::MatRef::from_row_major_slice(op, rows, cols);
+    // tall operators (every DRT operator: texels × charts or modes): the eigenvectors of the
+    // cols × cols Gram matrix are V and its eigenvalues σ²; A = op·V = UΣ. m·n² + n³ instead
+    // of a thin SVD's larger constant; the top modes kept lose nothing (their σ are ≥ 10⁻⁶σ₁
+    // in practice, far above the Gram's √ε·σ₁ floor), and the cut below is relative to σ₁²
+    let (s, v) = if rows >= 2 * cols {
+        let g = crate::svd::mul_tn(m, m);
+        let (l, v) = crate::svd::sym_eigen(g.as_ref())?;
+        (l.iter().map(|&x| x.max(0.0).sqrt()).collect::<Vec<f64>>(), v)
+    } else {
+        let d = thin_svd(m)?;
+        (d.s, d.v)
+    };
+    let s0 = s.first().copied().unwrap_or(0.0);
+    let floor = if rows >= 2 * cols { 1e-7 } else { 1e-12 };
+    let r = k.min(s.iter().filter(|&&x| x > floor * s0 && x > 0.0).count());
+    let vr = v.subcols(0, r);
+    let us = crate::svd::mul(m, vr);
     let mut a = vec![0.0; rows * r];
     let mut w = vec![0.0; r * cols];
     for c in 0..r {
+        // canonical sign: the largest-magnitude entry of each left vector positive
+        let mut best = (0.0f64, 0usize);
         for t in 0..rows {
-            a[t * r + c] = d.u[(t, c)] * d.s[c];
+            if us[(t, c)].abs() > best.0 {
+                best = (us[(t, c)].abs(), t);
+            }
+        }
+        let sg = if us[(best.1, c)] < 0.0 { -1.0 } else { 1.0 };
+        for t in 0..rows {
+            a[t * r + c] = sg * us[(t, c)];
         }
         for j in 0..cols {
-            w[c * cols + j] = d.v[(j, c)];
+            w[c * cols + j] = sg * v[(j, c)];
         }
     }
-    Ok((a, w, r))
+    let all: f64 = s.iter().map(|x| x * x).sum();
+    let rest: f64 = s[r..].iter().map(|x| x * x).sum();
+    let err = if all > 0.0 { (rest / all).sqrt() } else { 0.0 };
+    Ok((a, w, r, err))
 }
+
+/// `(A, W, rank, ‖op − A W‖_F / ‖op‖_F)`.
+type Factors = (Vec<f64>, Vec<f64>, usize, f64);
 
 /// `‖C − A W‖_F / ‖C‖_F`.
 fn factored_error(full: &[f64], a: &[f64], w: &[f64], rows: usize, cols: usize, rank: usize) -> f64 {
@@ -405,7 +442,7 @@ pub struct Receiver {
 }
 
 /// Measurements of a DRT bake (`--json`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct DrtMetrics {
     /// Receiving blocks.
     pub blocks: usize,
@@ -446,6 +483,8 @@ pub struct DrtMetrics {
 pub struct DrtBake {
     /// Parameters.
     pub params: DrtParams,
+    /// Which shard this is ([`DrtShard::WHOLE`] for a whole bake).
+    pub shard: DrtShard,
     /// Receiving blocks in ascending order.
     pub receivers: Vec<Receiver>,
     /// `ΔU_b` records sorted by `(dst, src)`.
@@ -553,10 +592,15 @@ impl Scene<'_> {
     /// block by block along the way the clutter that overlaps each block (the first block
     /// with a hit inside its segment holds the closest hit).
     pub fn cast(&self, b: usize, x: [f64; 3], d: [f64; 3]) -> RayHit {
-        let mut segs = Vec::with_capacity(8);
-        let wall = self.geo.trace_segments(b, x, d, &mut segs).map(|h| (h.block, h.face, h.point));
+        self.cast_with(b, x, d, &mut Vec::with_capacity(8))
+    }
+
+    /// [`Scene::cast`] with a caller-owned buffer for the blocks the ray crosses (the bake's
+    /// ray loops cast millions of rays; one allocation per texel instead of per ray).
+    pub fn cast_with(&self, b: usize, x: [f64; 3], d: [f64; 3], segs: &mut Vec<(usize, f64, f64)>) -> RayHit {
+        let wall = self.geo.trace_segments(b, x, d, segs).map(|h| (h.block, h.face, h.point));
         let mut hit = None;
-        for &(y, t0, t1) in &segs {
+        for &(y, t0, t1) in segs.iter() {
             let insts = &self.block_clutter[y];
             if insts.is_empty() {
                 continue;
@@ -630,9 +674,10 @@ fn scene_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, x: usiz
     let rot = rotation(seed, x as u64, t as u64);
     let n = dirs.len() as f64;
     let mut out = TexelRays::default();
+    let mut segs = Vec::with_capacity(8);
     for dl in &dirs.dirs {
         let d = frame_dir(&fr, rotate_z(*dl, rot));
-        let RayHit::Clutter(wall, hit) = sc.cast(x, p, d) else { continue };
+        let RayHit::Clutter(wall, hit) = sc.cast_with(x, p, d, &mut segs) else { continue };
         if let Some((y, g, q)) = wall {
             let k = sc.dict.shapes[sc.geo.level.blocks[y].shape].k_b;
             let slot = match out.du_b.iter().position(|(s, _)| *s == y) {
@@ -662,68 +707,111 @@ fn scene_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, x: usiz
 /// `(chart, value)` pairs of `C_c`.
 type ClutterRays = (Vec<(usize, Vec<f64>)>, Vec<(usize, f64)>);
 
-/// The rays of clutter texel `i` (`Err` when its outside lies in no block).
-fn clutter_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, i: usize) -> Result<ClutterRays, usize> {
-    let tx = &sc.clutter.texels[i];
-    let n = tx.normal;
-    // off the surface by a hair: the texel's own triangle is not hit again
-    let eps = 1e-7;
-    let o = [tx.position[0] + eps * n[0], tx.position[1] + eps * n[1], tx.position[2] + eps * n[2]];
-    let Some(b) = sc.geo.block_of(o) else { return Err(i) };
-    let (t, bt) = penumbra_math::warp::orthonormal_basis(n);
-    let fr = [t, bt, n];
-    let rot = rotation(seed ^ 0x4342, u64::MAX - 1, i as u64);
+/// The rays of the clutter texels `idx` (`Err` for a texel whose outside lies in no block).
+/// Rays add bilinear weights per (texel, wall texel) of each block they reach; one product
+/// per block with its `L_imp` at the end (`(ρ/N)·W·L_imp`, a dense matrix product): a ray
+/// costs 4 adds instead of 4·k_b multiply-adds, and the product runs at matrix speed.
+fn clutter_texels(
+    sc: &Scene<'_>,
+    dirs: &DirectionSet,
+    rho: f64,
+    seed: u64,
+    idx: &[usize],
+) -> Vec<Result<ClutterRays, usize>> {
     let nd = dirs.len() as f64;
-    // bilinear weights per (block, texel) first, one product with L_imp at the end: a ray
-    // costs 4 adds instead of 4·k_b multiply-adds
-    let mut wts: Vec<(usize, Vec<f64>)> = Vec::new();
-    let mut cc: Vec<(usize, f64)> = Vec::new();
-    for dl in &dirs.dirs {
-        let d = frame_dir(&fr, rotate_z(*dl, rot));
-        match sc.cast(b, o, d) {
-            RayHit::Wall(y, g, q) => {
-                let blk = &sc.geo.level.blocks[y];
-                let sh = &sc.dict.shapes[blk.shape];
-                let slot = match wts.iter().position(|(s, _)| *s == y) {
-                    Some(s) => s,
-                    None => {
-                        wts.push((y, vec![0.0; sh.texels.len()]));
-                        wts.len() - 1
+    let len = idx.len();
+    // (block, len × n_block weights)
+    let mut wts: Vec<(usize, Mat<f64>)> = Vec::new();
+    let mut cc: Vec<Vec<(usize, f64)>> = vec![Vec::new(); len];
+    let mut inside = vec![true; len];
+    let mut segs = Vec::with_capacity(8);
+    for (r, &i) in idx.iter().enumerate() {
+        let tx = &sc.clutter.texels[i];
+        let n = tx.normal;
+        // off the surface by a hair: the texel's own face is not hit again
+        let eps = 1e-7;
+        let o = [tx.position[0] + eps * n[0], tx.position[1] + eps * n[1], tx.position[2] + eps * n[2]];
+        let Some(b) = sc.geo.block_of(o) else {
+            inside[r] = false;
+            continue;
+        };
+        let (t, bt) = penumbra_math::warp::orthonormal_basis(n);
+        let fr = [t, bt, n];
+        let rot = rotation(seed ^ 0x4342, u64::MAX - 1, i as u64);
+        for dl in &dirs.dirs {
+            let d = frame_dir(&fr, rotate_z(*dl, rot));
+            match sc.cast_with(b, o, d, &mut segs) {
+                RayHit::Wall(y, g, q) => {
+                    let blk = &sc.geo.level.blocks[y];
+                    let sh = &sc.dict.shapes[blk.shape];
+                    let slot = match wts.iter().position(|(s, _)| *s == y) {
+                        Some(s) => s,
+                        None => {
+                            wts.push((y, Mat::zeros(len, sh.texels.len())));
+                            wts.len() - 1
+                        }
+                    };
+                    let (u, v) = face_uv(g, blk.to_local(q));
+                    let w = &mut wts[slot].1;
+                    for (t, bw) in sh.texels.bilinear(g, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
+                        w[(r, t)] += bw;
                     }
-                };
-                let (u, v) = face_uv(g, blk.to_local(q));
-                for (t, bw) in sh.texels.bilinear(g, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
-                    wts[slot].1[t] += bw;
                 }
-            }
-            RayHit::Clutter(_, h) if h.front => {
-                let w = 1.0 / (nd * (sc.clutter.charts[h.chart].count as f64).sqrt());
-                match cc.iter_mut().find(|(j, _)| *j == h.chart) {
-                    Some(e) => e.1 += w,
-                    None => cc.push((h.chart, w)),
+                RayHit::Clutter(_, h) if h.front => {
+                    let w = 1.0 / (nd * (sc.clutter.charts[h.chart].count as f64).sqrt());
+                    match cc[r].iter_mut().find(|(j, _)| *j == h.chart) {
+                        Some(e) => e.1 += w,
+                        None => cc[r].push((h.chart, w)),
+                    }
                 }
+                _ => {}
             }
-            _ => {}
         }
     }
-    let out = wts
-        .into_iter()
-        .map(|(y, w)| {
-            let sh = &sc.dict.shapes[sc.geo.level.blocks[y].shape];
-            let k = sh.k_b;
-            let mut row = vec![0.0; k];
-            for (t, &wt) in w.iter().enumerate() {
-                if wt != 0.0 {
-                    let s = rho / nd * wt;
-                    for (r, l) in row.iter_mut().zip(&sh.l_imp[t * k..(t + 1) * k]) {
-                        *r += s * l;
-                    }
+    let mut out: Vec<Result<ClutterRays, usize>> =
+        idx.iter().zip(&inside).map(|(&i, &ok)| if ok { Ok((Vec::new(), Vec::new())) } else { Err(i) }).collect();
+    for (y, w) in wts {
+        let sh = &sc.dict.shapes[sc.geo.level.blocks[y].shape];
+        let k = sh.k_b;
+        let l = faer::MatRef::from_row_major_slice(&sh.l_imp, sh.texels.len(), k);
+        let c = crate::svd::mul(w.as_ref(), l);
+        for (r, o) in out.iter_mut().enumerate() {
+            if let Ok((rows, _)) = o {
+                // a texel no ray of this block reached has a zero row: leave it out
+                if (0..w.ncols()).any(|t| w[(r, t)] != 0.0) {
+                    rows.push((y, (0..k).map(|c2| rho / nd * c[(r, c2)]).collect()));
                 }
             }
-            (y, row)
-        })
-        .collect();
-    Ok((out, cc))
+        }
+    }
+    for (o, c) in out.iter_mut().zip(cc) {
+        if let Ok((_, v)) = o {
+            *v = c;
+        }
+    }
+    out
+}
+
+/// One of `count` shards of a bake (`index < count`): receiving block `j` (in ascending
+/// block order) belongs to shard `j mod count`, clutter instance `i` to shard `i mod count`.
+/// Every record depends only on its own texels' rays, so the shards' records together are
+/// exactly a single run's ([`crate::drt_asset::merge`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DrtShard {
+    /// This shard.
+    pub index: usize,
+    /// Shards in all.
+    pub count: usize,
+}
+
+impl DrtShard {
+    /// The whole bake.
+    pub const WHOLE: Self = Self { index: 0, count: 1 };
+
+    /// Whether item `j` (a receiving block's rank, or an instance) is this shard's.
+    pub fn owns(self, j: usize) -> bool {
+        j % self.count == self.index
+    }
 }
 
 /// Bakes the DRT operators of a level with clutter.
@@ -735,7 +823,26 @@ pub fn bake(
     params: &DrtParams,
     progress: &dyn Progress,
 ) -> Result<DrtBake, TransportError> {
+    bake_shard(level, links, dict, clutter, params, DrtShard::WHOLE, progress)
+}
+
+/// One shard of [`bake`]: only its receiving blocks and instances (the metrics count those).
+pub fn bake_shard(
+    level: &Level,
+    links: &Links,
+    dict: &DrtDict,
+    clutter: &ClutterScene,
+    params: &DrtParams,
+    shard: DrtShard,
+    progress: &dyn Progress,
+) -> Result<DrtBake, TransportError> {
     params.validate()?;
+    if shard.count == 0 || shard.index >= shard.count {
+        return Err(TransportError::Param(format!(
+            "shard {}/{} is out of range (allowed: K/N with 0 <= K < N)",
+            shard.index, shard.count
+        )));
+    }
     if dict.face_res == 0 || level.blocks.iter().any(|b| b.shape >= dict.shapes.len()) {
         return Err(TransportError::Input("the level does not match the dictionary".into()));
     }
@@ -750,12 +857,26 @@ pub fn bake(
     }
     let sc = Scene::new(LevelGeometry { level, links, missing: &dict.missing }, clutter, dict);
     let dirs = DirectionSet::cosine(params.rays);
+    let cdirs = DirectionSet::cosine(params.clutter_rays);
     let rho = dict.albedo;
-    let recv = receiving_blocks(level, links, clutter, params.neighborhood);
-    // scene texels of every receiving block, flattened
+    let recv: Vec<usize> = receiving_blocks(level, links, clutter, params.neighborhood)
+        .into_iter()
+        .enumerate()
+        .filter(|&(j, _)| shard.owns(j))
+        .map(|(_, x)| x)
+        .collect();
+    let insts: Vec<usize> = (0..clutter.len()).filter(|&i| shard.owns(i)).collect();
+    // scene texels of every receiving block, flattened; clutter texels of this shard's instances
     let items: Vec<(usize, usize)> =
         recv.iter().flat_map(|&x| (0..dict.shapes[level.blocks[x].shape].texels.len()).map(move |t| (x, t))).collect();
-    let total = (items.len() + clutter.texels.len()) as u64;
+    let ctex: Vec<usize> = insts
+        .iter()
+        .flat_map(|&i| {
+            let [first, count] = clutter.instance_texels[i];
+            first..first + count
+        })
+        .collect();
+    let total = (items.len() + ctex.len()) as u64;
     let done = std::sync::atomic::AtomicU64::new(0);
     let tick = |k: u64| {
         let v = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
@@ -770,116 +891,66 @@ pub fn bake(
             v
         })
         .collect();
-    let gathers: Vec<Result<ClutterRays, usize>> = (0..clutter.texels.len())
-        .into_par_iter()
-        .chunks(64)
+    // chunks never straddle instances, so a texel's rows do not depend on the sharding
+    let chunks: Vec<&[usize]> = insts
+        .iter()
+        .flat_map(|&i| {
+            let [first, count] = clutter.instance_texels[i];
+            let start = ctex.partition_point(|&t| t < first);
+            ctex[start..start + count].chunks(64)
+        })
+        .collect();
+    let gathers: Vec<Result<ClutterRays, usize>> = chunks
+        .par_iter()
         .flat_map_iter(|chunk| {
-            let n = chunk.len() as u64;
-            let v: Vec<_> = chunk.into_iter().map(|i| clutter_texel(&sc, &dirs, rho, params.seed, i)).collect();
-            tick(n);
+            let v = clutter_texels(&sc, &cdirs, rho, params.seed, chunk);
+            tick(chunk.len() as u64);
             v
         })
         .collect();
 
-    // assemble per receiving block
+    // assemble per receiving block (each block's records and SVD independent: in parallel)
+    let mut starts = Vec::with_capacity(recv.len());
+    let mut pos = 0;
+    for &x in &recv {
+        starts.push(pos);
+        pos += dict.shapes[level.blocks[x].shape].texels.len();
+    }
+    let per_block: Vec<BlockOut> = recv
+        .par_iter()
+        .zip(starts.par_iter())
+        .map(|(&x, &start)| assemble_block(x, &per_texel[start..], level, dict, params))
+        .collect::<Result<_, _>>()?;
     let mut receivers = Vec::new();
     let mut du_b = Vec::new();
     let mut du_c = Vec::new();
     let (mut inpainted, mut failures) = (0, 0);
-    let mut pos = 0;
-    for &x in &recv {
-        let sh = &dict.shapes[level.blocks[x].shape];
-        let n = sh.texels.len();
-        let rows = &per_texel[pos..pos + n];
-        pos += n;
-        let mut srcs: Vec<usize> = rows.iter().flat_map(|r| r.du_b.iter().map(|(s, _)| *s)).collect();
-        let inside: Vec<bool> = rows.iter().map(|r| 2 * r.back > params.rays).collect();
-        if params.inpaint && inside.iter().any(|&b| b) {
-            srcs.push(x);
-        }
-        srcs.sort_unstable();
-        srcs.dedup();
-        let mut recs: Vec<DeltaRecord> = srcs
-            .iter()
-            .map(|&y| {
-                let cols = dict.shapes[level.blocks[y].shape].k_b;
-                let mut op = vec![0.0; n * cols];
-                for (t, r) in rows.iter().enumerate() {
-                    if let Some((_, row)) = r.du_b.iter().find(|(s, _)| *s == y) {
-                        op[t * cols..(t + 1) * cols].copy_from_slice(row);
-                    }
-                }
-                DeltaRecord { dst: x, src: y, rows: n, cols, op }
-            })
-            .collect();
-        let mut charts: Vec<usize> = rows.iter().flat_map(|r| r.du_c.iter().map(|(j, _)| *j)).collect();
-        charts.sort_unstable();
-        charts.dedup();
-        let mut refl = ReflectRecord::new(x, charts.clone(), n);
-        for (t, r) in rows.iter().enumerate() {
-            for &(j, v) in &r.du_c {
-                if let Ok(c) = charts.binary_search(&j) {
-                    refl.op[t * charts.len() + c] = v;
-                }
-            }
-        }
-        let mut mask = vec![0u8; n];
-        if params.inpaint {
-            let (a, f) = inpaint(&sh.texels, &inside, sh, x, &mut recs, &mut refl, &mut mask);
-            inpainted += a;
-            failures += f;
-        } else {
-            for (m, &i) in mask.iter_mut().zip(&inside) {
-                if i {
-                    *m = 2;
-                }
-            }
-            failures += inside.iter().filter(|&&b| b).count();
-        }
-        // records that inpainting left all zero carry nothing
-        recs.retain(|r| r.op.iter().any(|&v| v != 0.0));
-        du_b.extend(recs);
-        refl.factor(params.k_dc)?;
-        du_c.push(refl);
-        receivers.push(Receiver { block: x, texels: n, mask });
+    for o in per_block {
+        inpainted += o.inpainted;
+        failures += o.failures;
+        du_b.extend(o.du_b);
+        du_c.push(o.du_c);
+        receivers.push(o.receiver);
     }
 
     // C_b per instance; a texel whose outside is in no block (a box face lying on a wall, or
     // clutter poking through a wall) receives no light from the level: a zero row, counted
-    let empty: ClutterRays = (Vec::new(), Vec::new());
-    let mut outside = 0;
-    let mut c_b = Vec::new();
-    for (i, &[first, count]) in clutter.instance_texels.iter().enumerate() {
-        let rows: Vec<&ClutterRays> = gathers[first..first + count]
-            .iter()
-            .map(|g| match g {
-                Ok(r) => r,
-                Err(_) => {
-                    outside += 1;
-                    &empty
-                }
-            })
-            .collect();
-        let b_rows: Vec<&Vec<(usize, Vec<f64>)>> = rows.iter().map(|r| &r.0).collect();
-        let mut g = gather_op(i, &b_rows, level, dict, params)?;
-        if params.clutter_to_clutter {
-            let mut charts: Vec<usize> = rows.iter().flat_map(|r| r.1.iter().map(|(j, _)| *j)).collect();
-            charts.sort_unstable();
-            charts.dedup();
-            let mut cc = ReflectRecord::new(i, charts.clone(), count);
-            for (t, r) in rows.iter().enumerate() {
-                for &(j, v) in &r.1 {
-                    if let Ok(c) = charts.binary_search(&j) {
-                        cc.op[t * charts.len() + c] = v;
-                    }
-                }
-            }
-            cc.factor(params.k_c)?;
-            g.c_c = cc;
-        }
-        c_b.push(g);
+    let outside = gathers.iter().filter(|g| g.is_err()).count();
+    let mut starts = Vec::with_capacity(insts.len());
+    let mut pos = 0;
+    for &i in &insts {
+        starts.push(pos);
+        pos += clutter.instance_texels[i][1];
     }
-    let rays_traced = total * params.rays as u64;
+    let c_b: Vec<GatherOp> = insts
+        .par_iter()
+        .zip(starts.par_iter())
+        .map(|(&i, &start)| {
+            let count = clutter.instance_texels[i][1];
+            assemble_instance(i, &gathers[start..start + count], level, dict, params)
+        })
+        .collect::<Result<_, _>>()?;
+    let rays_traced = (items.len() * params.rays + ctex.len() * params.clutter_rays) as u64;
     let metrics = DrtMetrics {
         blocks: receivers.len(),
         clutter_instances: clutter.len(),
@@ -902,7 +973,106 @@ pub fn bake(
             Vec::new()
         },
     };
-    Ok(DrtBake { params: params.clone(), receivers, du_b, du_c, c_b, metrics })
+    Ok(DrtBake { params: params.clone(), shard, receivers, du_b, du_c, c_b, metrics })
+}
+
+/// One receiving block's records.
+struct BlockOut {
+    receiver: Receiver,
+    du_b: Vec<DeltaRecord>,
+    du_c: ReflectRecord,
+    inpainted: usize,
+    failures: usize,
+}
+
+/// The records of receiving block `x` from its texels' rays (`rows` starts at its first
+/// texel): `ΔU_b` per source block, `ΔU_c` factored, inpainting.
+fn assemble_block(
+    x: usize,
+    rows: &[TexelRays],
+    level: &Level,
+    dict: &DrtDict,
+    params: &DrtParams,
+) -> Result<BlockOut, TransportError> {
+    let sh = &dict.shapes[level.blocks[x].shape];
+    let n = sh.texels.len();
+    let rows = &rows[..n];
+    let mut srcs: Vec<usize> = rows.iter().flat_map(|r| r.du_b.iter().map(|(s, _)| *s)).collect();
+    let inside: Vec<bool> = rows.iter().map(|r| 2 * r.back > params.rays).collect();
+    if params.inpaint && inside.iter().any(|&b| b) {
+        srcs.push(x);
+    }
+    srcs.sort_unstable();
+    srcs.dedup();
+    let mut recs: Vec<DeltaRecord> = srcs
+        .iter()
+        .map(|&y| {
+            let cols = dict.shapes[level.blocks[y].shape].k_b;
+            let mut op = vec![0.0; n * cols];
+            for (t, r) in rows.iter().enumerate() {
+                if let Some((_, row)) = r.du_b.iter().find(|(s, _)| *s == y) {
+                    op[t * cols..(t + 1) * cols].copy_from_slice(row);
+                }
+            }
+            DeltaRecord { dst: x, src: y, rows: n, cols, op }
+        })
+        .collect();
+    let mut charts: Vec<usize> = rows.iter().flat_map(|r| r.du_c.iter().map(|(j, _)| *j)).collect();
+    charts.sort_unstable();
+    charts.dedup();
+    let mut refl = ReflectRecord::new(x, charts.clone(), n);
+    for (t, r) in rows.iter().enumerate() {
+        for &(j, v) in &r.du_c {
+            if let Ok(c) = charts.binary_search(&j) {
+                refl.op[t * charts.len() + c] = v;
+            }
+        }
+    }
+    let mut mask = vec![0u8; n];
+    let (inpainted, failures) = if params.inpaint {
+        inpaint(&sh.texels, &inside, sh, x, &mut recs, &mut refl, &mut mask)
+    } else {
+        for (m, &i) in mask.iter_mut().zip(&inside) {
+            if i {
+                *m = 2;
+            }
+        }
+        (0, inside.iter().filter(|&&b| b).count())
+    };
+    // records that inpainting left all zero carry nothing
+    recs.retain(|r| r.op.iter().any(|&v| v != 0.0));
+    refl.factor(params.k_dc)?;
+    Ok(BlockOut { receiver: Receiver { block: x, texels: n, mask }, du_b: recs, du_c: refl, inpainted, failures })
+}
+
+/// `C_b` (and `C_c`) of instance `i` from its texels' rays.
+fn assemble_instance(
+    i: usize,
+    gathers: &[Result<ClutterRays, usize>],
+    level: &Level,
+    dict: &DrtDict,
+    params: &DrtParams,
+) -> Result<GatherOp, TransportError> {
+    let empty: ClutterRays = (Vec::new(), Vec::new());
+    let rows: Vec<&ClutterRays> = gathers.iter().map(|g| g.as_ref().unwrap_or(&empty)).collect();
+    let b_rows: Vec<&Vec<(usize, Vec<f64>)>> = rows.iter().map(|r| &r.0).collect();
+    let mut g = gather_op(i, &b_rows, level, dict, params)?;
+    if params.clutter_to_clutter {
+        let mut charts: Vec<usize> = rows.iter().flat_map(|r| r.1.iter().map(|(j, _)| *j)).collect();
+        charts.sort_unstable();
+        charts.dedup();
+        let mut cc = ReflectRecord::new(i, charts.clone(), rows.len());
+        for (t, r) in rows.iter().enumerate() {
+            for &(j, v) in &r.1 {
+                if let Ok(c) = charts.binary_search(&j) {
+                    cc.op[t * charts.len() + c] = v;
+                }
+            }
+        }
+        cc.factor(params.k_c)?;
+        g.c_c = cc;
+    }
+    Ok(g)
 }
 
 /// Ring-by-ring inpainting of the inside texels of one receiving block (module docs).
@@ -1027,13 +1197,13 @@ fn gather_op(
             full[t * kk + o..t * kk + o + row.len()].copy_from_slice(row);
         }
     }
-    let (a, w, rank) = match params.kc_mode {
+    let (a, w, rank, truncation_rel_error) = match params.kc_mode {
         KcMode::Full => {
             let mut w = vec![0.0; kk * kk];
             for i in 0..kk {
                 w[i * kk + i] = 1.0;
             }
-            (full.clone(), w, kk)
+            (full.clone(), w, kk, 0.0)
         }
         KcMode::First => {
             let mut cols = Vec::new();
@@ -1050,11 +1220,11 @@ fn gather_op(
                 }
                 w[ci * kk + c] = 1.0;
             }
-            (a, w, r)
+            let e = factored_error(&full, &a, &w, m, kk, r);
+            (a, w, r, e)
         }
         KcMode::Svd => truncated(&full, m, kk, params.k_c)?,
     };
-    let truncation_rel_error = factored_error(&full, &a, &w, m, kk, rank);
     Ok(GatherOp {
         instance,
         srcs,
@@ -1145,6 +1315,7 @@ mod tests {
     fn params(rays: usize) -> DrtParams {
         DrtParams {
             rays,
+            clutter_rays: rays,
             neighborhood: 0,
             k_c: KB,
             k_dc: 4096,

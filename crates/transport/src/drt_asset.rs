@@ -5,9 +5,11 @@
 
 use crate::TransportError;
 use crate::clutter::ClutterScene;
-use crate::drt::{DRTO_KIND_VERSION, DrtBake, ReflectRecord};
-use penumbra_asset::{AssetBuilder, Kind};
-use serde_json::json;
+use crate::drt::{
+    DRTO_KIND_VERSION, DeltaRecord, DrtBake, DrtMetrics, DrtParams, DrtShard, GatherOp, KcMode, Receiver, ReflectRecord,
+};
+use penumbra_asset::{Asset, AssetBuilder, DType, Kind};
+use serde_json::{Value, json};
 
 /// Every section of a kind-version-1 `DRTO`, in file order (for `require_known`).
 pub const DRTO_SECTIONS: &[&str] = &[
@@ -35,6 +37,17 @@ pub const DRTO_SECTIONS: &[&str] = &[
     "c_c.charts",
     "c_c.a",
     "c_c.w",
+];
+
+/// The clutter sections, which every shard writes whole (copied by [`merge`]).
+const CLUTTER_SECTIONS: &[&str] = &[
+    "clutter.instances",
+    "clutter.charts",
+    "clutter.albedo",
+    "clutter.positions",
+    "clutter.normals",
+    "clutter.uv",
+    "clutter.t_d2c",
 ];
 
 fn err(e: impl core::fmt::Display) -> TransportError {
@@ -94,7 +107,16 @@ pub fn to_asset(
         "metrics": b.metrics,
     });
     a.add_json("meta", &serde_json::to_string(&meta).map_err(err)?).map_err(err)?;
+    body(&mut a, b, &mut |a| clutter_sections(a, clutter, b.params.half))?;
+    Ok(a)
+}
 
+/// Everything after `meta`; `clutter` writes the clutter sections in their place.
+fn body(
+    a: &mut AssetBuilder,
+    b: &DrtBake,
+    clutter: &mut dyn FnMut(&mut AssetBuilder) -> Result<(), TransportError>,
+) -> Result<(), TransportError> {
     let mut recv = Vec::new();
     let mut mask = Vec::new();
     for r in &b.receivers {
@@ -111,10 +133,26 @@ pub fn to_asset(
         vals.extend(f32s(&r.op));
     }
     a.add_u32("du_b.records", &[b.du_b.len(), 5], &rec).map_err(err)?;
-    add_floats(&mut a, "du_b", &vals, b.params.half)?;
+    add_floats(a, "du_b", &vals, b.params.half)?;
 
-    write_reflect(&mut a, "du_c", &b.du_c.iter().collect::<Vec<_>>(), b.params.half)?;
+    write_reflect(a, "du_c", &b.du_c.iter().collect::<Vec<_>>(), b.params.half)?;
+    clutter(a)?;
+    write_gathers(a, b)?;
+    if b.shard.count > 1 {
+        // a shard is not a usable operator set: readers that do not know shards must refuse it
+        let sh = json!({
+            "index": b.shard.index,
+            "count": b.shard.count,
+            "c_b_src_offsets": b.c_b.iter().map(|g| g.src_offsets.clone()).collect::<Vec<_>>(),
+        });
+        a.add_json("shard", &sh.to_string()).map_err(err)?;
+        a.set_critical("shard", true).map_err(err)?;
+    }
+    Ok(())
+}
 
+/// The clutter sections of a scene.
+fn clutter_sections(a: &mut AssetBuilder, clutter: &ClutterScene, half: bool) -> Result<(), TransportError> {
     let ni = clutter.len();
     let mut inst = Vec::new();
     for (i, &[first, count]) in clutter.instance_texels.iter().enumerate() {
@@ -142,14 +180,18 @@ pub fn to_asset(
     let w: Vec<f32> =
         clutter.texels.iter().map(|t| (1.0 / (clutter.charts[t.chart].count as f64).sqrt()) as f32).collect();
     a.add_f32("clutter.positions", &[m, 3], &pos).map_err(err)?;
-    if b.params.half {
+    if half {
         a.add_f16("clutter.normals", &[m, 3], &nor).map_err(err)?;
     } else {
         a.add_f32("clutter.normals", &[m, 3], &nor).map_err(err)?;
     }
     a.add_u32("clutter.uv", &[m, 4], &uv).map_err(err)?;
     a.add_f32("clutter.t_d2c", &[m], &w).map_err(err)?;
+    Ok(())
+}
 
+/// `c_b.*` and `c_c.*`.
+fn write_gathers(a: &mut AssetBuilder, b: &DrtBake) -> Result<(), TransportError> {
     let mut rec = Vec::new();
     let mut srcs = Vec::new();
     let mut av = Vec::new();
@@ -173,10 +215,10 @@ pub fn to_asset(
     }
     a.add_u32("c_b.records", &[b.c_b.len(), 7], &rec).map_err(err)?;
     a.add_u32("c_b.srcs", &[srcs.len()], &srcs).map_err(err)?;
-    add_floats(&mut a, "c_b.a", &av, b.params.half)?;
-    add_floats(&mut a, "c_b.w", &wv, b.params.half)?;
-    write_reflect(&mut a, "c_c", &b.c_b.iter().map(|g| &g.c_c).collect::<Vec<_>>(), b.params.half)?;
-    Ok(a)
+    add_floats(a, "c_b.a", &av, b.params.half)?;
+    add_floats(a, "c_b.w", &wv, b.params.half)?;
+    write_reflect(a, "c_c", &b.c_b.iter().map(|g| &g.c_c).collect::<Vec<_>>(), b.params.half)?;
+    Ok(())
 }
 
 /// A list of factored reflection operators: `<p>.records` u32 [R, 7] = (dst, rows, rank,
@@ -218,4 +260,283 @@ fn add_floats(a: &mut AssetBuilder, name: &str, v: &[f32], half: bool) -> Result
         a.add_f32(name, &[v.len()], v).map_err(err)?;
     }
     Ok(())
+}
+
+/// The records of a shard asset read back: the values as stored (f16 or f32, exactly), the
+/// per-record truncation errors from its metrics, and what its meta says.
+struct ShardPart {
+    shard: DrtShard,
+    meta: Value,
+    bake: DrtBake,
+    c_c: bool,
+}
+
+fn u32s(a: &Asset<'_>, name: &str, cols: usize) -> Result<Vec<usize>, TransportError> {
+    let s = a.section(name).ok_or_else(|| TransportError::Asset(format!("section {name:?} is missing")))?;
+    let v = s.as_u32().map_err(|e| TransportError::Asset(format!("section {name:?}: {e}")))?;
+    if cols > 0 && v.len() % cols != 0 {
+        return Err(TransportError::Asset(format!("section {name:?}: {} values, not rows of {cols}", v.len())));
+    }
+    Ok(v.iter().map(|&x| x as usize).collect())
+}
+
+fn floats(a: &Asset<'_>, name: &str) -> Result<Vec<f64>, TransportError> {
+    let s = a.section(name).ok_or_else(|| TransportError::Asset(format!("section {name:?} is missing")))?;
+    s.to_f64_vec().map_err(|e| TransportError::Asset(format!("section {name:?}: {e}")))
+}
+
+fn slice(v: &[f64], off: usize, len: usize, what: &str) -> Result<Vec<f64>, TransportError> {
+    v.get(off..off + len)
+        .map(<[f64]>::to_vec)
+        .ok_or_else(|| TransportError::Asset(format!("{what}: range {off}..{} past the data", off + len)))
+}
+
+fn read_reflect(a: &Asset<'_>, p: &str, errs: &[f64]) -> Result<Vec<ReflectRecord>, TransportError> {
+    let rec = u32s(a, &format!("{p}.records"), 7)?;
+    let charts = u32s(a, &format!("{p}.charts"), 0)?;
+    let av = floats(a, &format!("{p}.a"))?;
+    let wv = floats(a, &format!("{p}.w"))?;
+    rec.chunks(7)
+        .enumerate()
+        .map(|(i, r)| {
+            let [dst, rows, rank, cols, ao, wo, co] = [r[0], r[1], r[2], r[3], r[4], r[5], r[6]];
+            let ch = charts
+                .get(co..co + cols)
+                .ok_or_else(|| TransportError::Asset(format!("{p}.charts: record {i} past the data")))?
+                .to_vec();
+            let mut out = ReflectRecord::new(dst, ch, rows);
+            out.op = Vec::new();
+            out.a = slice(&av, ao, rows * rank, &format!("{p}.a"))?;
+            out.w = slice(&wv, wo, rank * cols, &format!("{p}.w"))?;
+            out.rank = rank;
+            out.truncation_rel_error = errs.get(i).copied().unwrap_or(0.0);
+            Ok(out)
+        })
+        .collect()
+}
+
+fn f64_list(v: &Value) -> Vec<f64> {
+    v.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default()
+}
+
+fn read_part(a: &Asset<'_>, i: usize) -> Result<ShardPart, TransportError> {
+    let bad = |m: String| TransportError::Merge(format!("input {}: {m}", i + 1));
+    if a.kind() != Kind::DRTO {
+        return Err(bad(format!("not a DRTO asset (kind {})", a.kind().as_str())));
+    }
+    let meta: Value = serde_json::from_str(a.meta_json()).map_err(|e| bad(e.to_string()))?;
+    let sh = a.section("shard").ok_or_else(|| bad("a whole bake, not a shard (no shard section)".into()))?;
+    let sh: Value =
+        serde_json::from_str(sh.as_json().map_err(|e| bad(e.to_string()))?).map_err(|e| bad(e.to_string()))?;
+    let shard = DrtShard {
+        index: sh["index"].as_u64().ok_or_else(|| bad("shard.index missing".into()))? as usize,
+        count: sh["count"].as_u64().ok_or_else(|| bad("shard.count missing".into()))? as usize,
+    };
+    let m = &meta["metrics"];
+    let recv = u32s(a, "receivers", 3)?;
+    let mask = a
+        .section("inpaint_mask")
+        .ok_or_else(|| bad("section inpaint_mask is missing".into()))?
+        .as_u8()
+        .map_err(|e| bad(e.to_string()))?;
+    let receivers = recv
+        .chunks(3)
+        .map(|r| {
+            let m = mask.get(r[1]..r[1] + r[2]).ok_or_else(|| bad("inpaint_mask too short".into()))?;
+            Ok(Receiver { block: r[0], texels: r[2], mask: m.to_vec() })
+        })
+        .collect::<Result<Vec<_>, TransportError>>()?;
+    let rec = u32s(a, "du_b.records", 5)?;
+    let vals = floats(a, "du_b")?;
+    let du_b = rec
+        .chunks(5)
+        .map(|r| {
+            Ok(DeltaRecord {
+                dst: r[0],
+                src: r[1],
+                rows: r[3],
+                cols: r[4],
+                op: slice(&vals, r[2], r[3] * r[4], "du_b")?,
+            })
+        })
+        .collect::<Result<Vec<_>, TransportError>>()?;
+    let du_c = read_reflect(a, "du_c", &f64_list(&m["du_c_truncation_rel_error"]))?;
+    let c_c_errs = f64_list(&m["c_c_truncation_rel_error"]);
+    let c_c_on = meta["params"]["clutter_to_clutter"].as_bool().unwrap_or(true);
+    let c_c = read_reflect(a, "c_c", &c_c_errs)?;
+    let rec = u32s(a, "c_b.records", 7)?;
+    let srcs = u32s(a, "c_b.srcs", 0)?;
+    let av = floats(a, "c_b.a")?;
+    let wv = floats(a, "c_b.w")?;
+    let offs = sh["c_b_src_offsets"].as_array().cloned().unwrap_or_default();
+    let cb_errs = f64_list(&m["c_b_truncation_rel_error"]);
+    let mut c_b = Vec::new();
+    for (j, r) in rec.chunks(7).enumerate() {
+        let [inst, rank, kk, ao, wo, so, ns] = [r[0], r[1], r[2], r[3], r[4], r[5], r[6]];
+        let src_offsets: Vec<usize> = offs
+            .get(j)
+            .and_then(Value::as_array)
+            .map(|o| o.iter().filter_map(Value::as_u64).map(|x| x as usize).collect())
+            .ok_or_else(|| bad(format!("shard.c_b_src_offsets has no entry {j}")))?;
+        if src_offsets.last().copied() != Some(kk) {
+            return Err(bad(format!("c_b record {j}: source offsets do not end at {kk}")));
+        }
+        c_b.push((inst, rank, kk, ao, wo, srcs.get(so..so + ns).map(<[usize]>::to_vec), src_offsets));
+    }
+    // rows per instance come from the clutter table (every shard has it whole)
+    let inst_tab = u32s(a, "clutter.instances", 4)?;
+    let mut gathers = Vec::new();
+    for (j, (inst, rank, kk, ao, wo, srcs, src_offsets)) in c_b.into_iter().enumerate() {
+        let m_rows = *inst_tab.get(4 * inst + 1).ok_or_else(|| bad(format!("c_b record {j}: no instance {inst}")))?;
+        let srcs = srcs.ok_or_else(|| bad(format!("c_b record {j}: sources past c_b.srcs")))?;
+        let c_c = if c_c_on {
+            c_c.get(j).cloned().ok_or_else(|| bad(format!("no c_c record for c_b record {j}")))?
+        } else {
+            ReflectRecord::new(inst, Vec::new(), m_rows)
+        };
+        gathers.push(GatherOp {
+            instance: inst,
+            srcs,
+            src_offsets,
+            a: slice(&av, ao, m_rows * rank, "c_b.a")?,
+            w: slice(&wv, wo, rank * kk, "c_b.w")?,
+            rank,
+            truncation_rel_error: cb_errs.get(j).copied().unwrap_or(0.0),
+            full: Vec::new(),
+            c_c,
+        });
+    }
+    let params = params_of(&meta["params"]);
+    let metrics: DrtMetrics = serde_json::from_value(m.clone()).map_err(|e| bad(format!("meta.metrics: {e}")))?;
+    Ok(ShardPart {
+        shard,
+        meta,
+        bake: DrtBake { params, shard, receivers, du_b, du_c, c_b: gathers, metrics },
+        c_c: c_c_on,
+    })
+}
+
+/// The bake parameters recorded in a DRTO's `meta.params`.
+pub fn params_of(p: &Value) -> DrtParams {
+    let d = DrtParams::default();
+    let u = |k: &str, v: usize| p[k].as_u64().map_or(v, |x| x as usize);
+    DrtParams {
+        rays: u("rays", d.rays),
+        clutter_rays: u("clutter_rays", u("rays", d.rays)),
+        neighborhood: u("neighborhood", d.neighborhood),
+        k_c: u("k_c", d.k_c),
+        k_dc: u("k_dc", d.k_dc),
+        clutter_to_clutter: p["clutter_to_clutter"].as_bool().unwrap_or(true),
+        kc_mode: p["kc_mode"].as_str().and_then(KcMode::parse).unwrap_or(KcMode::Svd),
+        inpaint: p["inpaint"].as_bool().unwrap_or(true),
+        clutter_res: u("clutter_res", d.clutter_res),
+        clutter_basis_res: u("clutter_basis_res", 1),
+        seed: p["seed"].as_u64().unwrap_or(0),
+        half: p["half"].as_bool().unwrap_or(true),
+    }
+}
+
+/// Merges the shard assets of one bake (`--shard K/N`, any order) into the asset a single run
+/// writes, byte for byte: the records are joined in a single run's order (receiving blocks
+/// ascending, `ΔU_b` by (dst, src), instances ascending), the stored values are copied
+/// exactly (f16 and f32 re-encode to the same bits), the clutter sections are every shard's
+/// (checked equal) and the metrics are recomputed from the joined records and the shards'
+/// counters. Refuses shards of different bakes and missing or repeated shards.
+pub fn merge(shards: &[Asset<'_>]) -> Result<AssetBuilder, TransportError> {
+    let merr = |m: String| TransportError::Merge(m);
+    if shards.is_empty() {
+        return Err(merr("no shards given".into()));
+    }
+    let parts: Vec<ShardPart> = shards.iter().enumerate().map(|(i, a)| read_part(a, i)).collect::<Result<_, _>>()?;
+    let n = parts[0].shard.count;
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    order.sort_by_key(|&i| parts[i].shard.index);
+    if parts.len() != n
+        || order.iter().enumerate().any(|(k, &i)| parts[i].shard.index != k || parts[i].shard.count != n)
+    {
+        let have: Vec<String> = parts.iter().map(|p| format!("{}/{}", p.shard.index, p.shard.count)).collect();
+        return Err(merr(format!("need shards 0..{n} of {n} exactly once, got {}", have.join(", "))));
+    }
+    let strip = |m: &Value| {
+        let mut m = m.clone();
+        if let Some(o) = m.as_object_mut() {
+            o.remove("metrics");
+        }
+        m
+    };
+    let base = &parts[order[0]];
+    for &i in &order[1..] {
+        if strip(&parts[i].meta) != strip(&base.meta) {
+            return Err(merr(format!(
+                "shard {}/{n} comes from a different bake (parameters, inputs or tool differ from shard 0/{n})",
+                parts[i].shard.index
+            )));
+        }
+        for name in CLUTTER_SECTIONS {
+            let (x, y) = (shards[i].section(name), shards[order[0]].section(name));
+            if x.map(|s| s.bytes()) != y.map(|s| s.bytes()) {
+                return Err(merr(format!(
+                    "shard {}/{n}: section {name:?} differs from shard 0/{n}",
+                    parts[i].shard.index
+                )));
+            }
+        }
+    }
+    let mut receivers: Vec<Receiver> = Vec::new();
+    let mut du_b: Vec<DeltaRecord> = Vec::new();
+    let mut du_c: Vec<ReflectRecord> = Vec::new();
+    let mut c_b: Vec<GatherOp> = Vec::new();
+    let (mut traced, mut outside) = (0u64, 0usize);
+    for p in &parts {
+        receivers.extend(p.bake.receivers.iter().cloned());
+        du_b.extend(p.bake.du_b.iter().cloned());
+        du_c.extend(p.bake.du_c.iter().cloned());
+        c_b.extend(p.bake.c_b.iter().cloned());
+        traced += p.bake.metrics.rays_traced;
+        outside += p.bake.metrics.clutter_texels_outside;
+    }
+    receivers.sort_by_key(|r| r.block);
+    du_b.sort_by_key(|r| (r.dst, r.src));
+    du_c.sort_by_key(|r| r.dst);
+    c_b.sort_by_key(|g| g.instance);
+    let m0 = &base.bake.metrics;
+    let inpainted = receivers.iter().map(|r| r.mask.iter().filter(|&&v| v == 1).count()).sum();
+    let failures = receivers.iter().map(|r| r.mask.iter().filter(|&&v| v == 2).count()).sum();
+    let metrics = DrtMetrics {
+        blocks: receivers.len(),
+        clutter_instances: m0.clutter_instances,
+        clutter_texels: m0.clutter_texels,
+        clutter_charts: m0.clutter_charts,
+        rays: m0.rays,
+        rays_traced: traced,
+        inpainted_texels: inpainted,
+        inpaint_failures: failures,
+        clutter_texels_outside: outside,
+        neighborhood: m0.neighborhood,
+        delta_occlusion_records: du_b.len(),
+        k_c: c_b.iter().map(|g| g.rank).max().unwrap_or(0),
+        c_b_truncation_rel_error: c_b.iter().map(|g| g.truncation_rel_error).collect(),
+        k_dc: du_c.iter().map(|r| r.rank).max().unwrap_or(0),
+        du_c_truncation_rel_error: du_c.iter().map(|r| r.truncation_rel_error).collect(),
+        c_c_truncation_rel_error: if base.c_c {
+            c_b.iter().map(|g| g.c_c.truncation_rel_error).collect()
+        } else {
+            Vec::new()
+        },
+    };
+    let mut meta = base.meta.clone();
+    meta["metrics"] = serde_json::to_value(&metrics).map_err(err)?;
+    let b = DrtBake { params: base.bake.params.clone(), shard: DrtShard::WHOLE, receivers, du_b, du_c, c_b, metrics };
+    let mut a = AssetBuilder::new(Kind::DRTO);
+    a.add_json("meta", &serde_json::to_string(&meta).map_err(err)?).map_err(err)?;
+    let src = &shards[order[0]];
+    body(&mut a, &b, &mut |a| {
+        for name in CLUTTER_SECTIONS {
+            let s = src.section(name).ok_or_else(|| TransportError::Asset(format!("section {name:?} is missing")))?;
+            let dt: DType = s.dtype();
+            a.add_raw(name, dt, s.dims(), s.bytes()).map_err(err)?;
+        }
+        Ok(())
+    })?;
+    Ok(a)
 }

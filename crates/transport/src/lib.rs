@@ -60,4 +60,7 @@ pub enum TransportError {
     /// An input asset (a dictionary read back by the level bake) is unusable.
     #[error("{0}")]
     Input(String),
+    /// Shard assets that do not merge (different bakes, missing or repeated shards).
+    #[error("cannot merge: {0}")]
+    Merge(String),
 }

@@ -305,7 +305,7 @@ fn run_drt(
         }
     }
     let args = DrtSceneArgs {
-        dict,
+        dict: Some(dict),
         level: if d.example.is_some() { None } else { level },
         source: LevelSource { maze: None, seed: 0, corridor: None, l_turn: None },
         example: d.example.clone(),
@@ -318,6 +318,7 @@ fn run_drt(
     let defaults = penumbra_transport::drt::DrtParams::default();
     let params = penumbra_transport::drt::DrtParams {
         rays: d.rays.map_or(defaults.rays, |v| v as usize),
+        clutter_rays: d.clutter_rays.or(d.rays).map_or(defaults.clutter_rays, |v| v as usize),
         neighborhood: d.neighborhood.map_or(defaults.neighborhood, |v| v as usize),
         k_c: d.kc.map_or(defaults.k_c, |v| v as usize),
         k_dc: d.kdc.map_or(defaults.k_dc, |v| v as usize),

@@ -11,7 +11,7 @@ use clap::Args;
 use penumbra_asset::AssetFile;
 use penumbra_config::clutter::{BoxFacesName, load_clutter};
 use penumbra_transport::clutter::{BoxFaces, ClutterScene, ClutterShape, ClutterSpec, quat_y};
-use penumbra_transport::drt::{DrtDict, DrtParams, KcMode, bake};
+use penumbra_transport::drt::{DrtDict, DrtParams, DrtShard, KcMode, bake_shard};
 use penumbra_transport::drt_asset::{DrtInputs, to_asset};
 use penumbra_transport::drt_examples::example;
 use penumbra_transport::level::{Level, Links};
@@ -25,8 +25,8 @@ use std::time::Instant;
 #[derive(Debug, Args)]
 pub struct DrtSceneArgs {
     /// The dictionary (.mrtd, kind_version 3: it carries the implicit lights L_imp).
-    #[arg(long)]
-    pub dict: PathBuf,
+    #[arg(long, required = true)]
+    pub dict: Option<PathBuf>,
     /// The level: a level file (TOML) or a baked level asset (.mrtl, baked with --dict).
     /// Omit with --maze/--corridor/--l-turn or --example.
     #[arg(long)]
@@ -148,9 +148,10 @@ fn clutter_from_file(path: &Path) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliE
 
 /// Resolves the scene of `a`.
 pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
-    let ops = load_dict(&a.dict)?;
-    let f = AssetFile::open(&a.dict).with_context(|| format!("cannot open dictionary {}", a.dict.display()))?;
-    let dict = DrtDict::from_asset(&f.asset()).map_err(|e| CliError::input(anyhow!("{}: {e}", a.dict.display())))?;
+    let dpath = a.dict_path();
+    let ops = load_dict(dpath)?;
+    let f = AssetFile::open(dpath).with_context(|| format!("cannot open dictionary {}", dpath.display()))?;
+    let dict = DrtDict::from_asset(&f.asset()).map_err(|e| CliError::input(anyhow!("{}: {e}", dpath.display())))?;
     let mut specs = Vec::new();
     let mut desc = Vec::new();
     let mut example_lights = None;
@@ -207,7 +208,7 @@ pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
                 "{} was baked with another dictionary (CRC-32C {}), not {} ({:08x})",
                 p.display(),
                 meta["dictionary"]["crc32c"],
-                a.dict.display(),
+                a.dict_path().display(),
                 ops.crc32c
             )));
         }
@@ -251,9 +252,12 @@ impl DrtScene {
 /// Bake options shared by `drt` and `verify drt`.
 #[derive(Debug, Args)]
 pub struct DrtBakeArgs {
-    /// Rays per texel (thesis: 1024).
+    /// Rays per scene texel (thesis: 1024).
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
     pub rays: u32,
+    /// Rays per clutter texel for C_b and C_c (default: --rays; docs/drt.md measures fewer).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
+    pub clutter_rays: Option<u32>,
     /// Receiving blocks: within D connection hops of a block with clutter (docs/drt.md measures D).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
     pub neighborhood: u32,
@@ -286,6 +290,7 @@ impl DrtBakeArgs {
     pub fn params(&self, clutter_res: u32, clutter_basis_res: u32) -> DrtParams {
         DrtParams {
             rays: self.rays as usize,
+            clutter_rays: self.clutter_rays.unwrap_or(self.rays) as usize,
             neighborhood: self.neighborhood as usize,
             k_c: self.kc as usize,
             k_dc: self.kdc as usize,
@@ -302,13 +307,49 @@ impl DrtBakeArgs {
 
 /// `penumbra drt`.
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct DrtArgs {
+    /// `merge`: join shard assets.
+    #[command(subcommand)]
+    pub command: Option<DrtCommand>,
     /// The scene.
     #[command(flatten)]
     pub scene: DrtSceneArgs,
     /// Bake options.
     #[command(flatten)]
     pub bake: DrtBakeArgs,
+    /// Bake shard K of N (receiving blocks and clutter instances j with j mod N = K); join the
+    /// shards with `penumbra drt merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Output asset (.drto).
+    #[arg(short = 'o', long, required = true)]
+    pub output: Option<PathBuf>,
+    /// One JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl DrtSceneArgs {
+    /// The dictionary path (clap requires it outside `drt merge`).
+    pub fn dict_path(&self) -> &Path {
+        self.dict.as_deref().unwrap_or(Path::new(""))
+    }
+}
+
+/// `penumbra drt` subcommands.
+#[derive(Debug, clap::Subcommand)]
+pub enum DrtCommand {
+    /// Join the shards of one bake (`--shard K/N`, any order) into the bytes a single run writes.
+    Merge(DrtMergeArgs),
+}
+
+/// `penumbra drt merge`.
+#[derive(Debug, Args)]
+pub struct DrtMergeArgs {
+    /// Shard assets (every K of one bake's K/N, any order).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
     /// Output asset (.drto).
     #[arg(short = 'o', long)]
     pub output: PathBuf,
@@ -338,9 +379,19 @@ pub fn bake_scene(
     params: &DrtParams,
     mode: ProgressMode,
 ) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>), CliError> {
+    bake_scene_shard(sc, params, DrtShard::WHOLE, mode)
+}
+
+/// [`bake_scene`] for one shard.
+pub fn bake_scene_shard(
+    sc: &DrtScene,
+    params: &DrtParams,
+    shard: DrtShard,
+    mode: ProgressMode,
+) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>), CliError> {
     let rep = Reporter::new("drt", mode);
-    let b =
-        bake(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, &rep).map_err(|e| CliError::input(anyhow!("{e}")))?;
+    let b = bake_shard(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, shard, &rep)
+        .map_err(|e| CliError::input(anyhow!("{e}")))?;
     rep.finish();
     let inputs = sc.inputs();
     let key = cache_key(sc, params);
@@ -352,15 +403,25 @@ pub fn bake_scene(
 /// Runs `penumbra drt`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    if let Some(DrtCommand::Merge(m)) = &a.command {
+        return run_merge(m);
+    }
     let start = Instant::now();
+    let shard = match &a.shard {
+        Some(s) => {
+            let (index, count) = super::bake::parse_shard(s)?;
+            DrtShard { index, count }
+        }
+        None => DrtShard::WHOLE,
+    };
     let sc = load_scene(&a.scene)?;
     let params = a.bake.params(a.scene.clutter_res, a.scene.clutter_basis_res);
+    let output = a.output.as_deref().unwrap_or(Path::new("out.drto"));
     let t0 = Instant::now();
-    let (b, bytes) = bake_scene(&sc, &params, mode)?;
+    let (b, bytes) = bake_scene_shard(&sc, &params, shard, mode)?;
     let bake_seconds = t0.elapsed().as_secs_f64();
-    ensure_parent(&a.output)?;
-    penumbra_asset::write_file_atomic(&a.output, &bytes)
-        .with_context(|| format!("cannot write {}", a.output.display()))?;
+    ensure_parent(output)?;
+    penumbra_asset::write_file_atomic(output, &bytes).with_context(|| format!("cannot write {}", output.display()))?;
     let mut v = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
     if let Some(o) = v.as_object_mut() {
         o.insert("level".into(), json!(sc.what));
@@ -369,7 +430,10 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         o.insert("bytes".into(), json!(bytes.len()));
         o.insert("bake_seconds".into(), json!(bake_seconds));
         o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
-        o.insert("output".into(), json!(a.output.display().to_string()));
+        o.insert("output".into(), json!(output.display().to_string()));
+        if shard.count > 1 {
+            o.insert("shard".into(), json!({"index": shard.index, "count": shard.count}));
+        }
     }
     if a.json {
         print_json(&v);
@@ -387,10 +451,41 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             m.inpaint_failures,
             m.delta_occlusion_records,
             m.k_c,
-            a.output.display(),
+            output.display(),
             bytes.len(),
             start.elapsed().as_secs_f64()
         );
+    }
+    Ok(ExitCode::Ok)
+}
+
+/// Runs `penumbra drt merge`.
+#[allow(clippy::print_stderr)]
+fn run_merge(a: &DrtMergeArgs) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let files: Vec<AssetFile> = a
+        .shards
+        .iter()
+        .map(|p| AssetFile::open(p).with_context(|| format!("cannot read shard {}", p.display())))
+        .collect::<Result<_, _>>()?;
+    let assets: Vec<_> = files.iter().map(AssetFile::asset).collect();
+    let merged = penumbra_transport::drt_asset::merge(&assets).map_err(|e| {
+        let names: Vec<String> = a.shards.iter().map(|p| p.display().to_string()).collect();
+        CliError::input(anyhow!("{e} (inputs: {})", names.join(", ")))
+    })?;
+    let bytes = merged.to_bytes().map_err(CliError::internal)?;
+    ensure_parent(&a.output)?;
+    penumbra_asset::write_file_atomic(&a.output, &bytes)
+        .with_context(|| format!("cannot write {}", a.output.display()))?;
+    if a.json {
+        print_json(&json!({
+            "shards": a.shards.len(),
+            "bytes": bytes.len(),
+            "seconds": start.elapsed().as_secs_f64(),
+            "output": a.output.display().to_string(),
+        }));
+    } else {
+        eprintln!("merged {} shards into {} ({} bytes)", a.shards.len(), a.output.display(), bytes.len());
     }
     Ok(ExitCode::Ok)
 }

@@ -111,6 +111,7 @@ fn params_of(meta: &Value) -> DrtParams {
     let u = |k: &str, d: usize| p[k].as_u64().map_or(d, |v| v as usize);
     DrtParams {
         rays: u("rays", 1024),
+        clutter_rays: u("clutter_rays", u("rays", 1024)),
         neighborhood: u("neighborhood", 1),
         k_c: u("k_c", 5),
         k_dc: u("k_dc", 32),
@@ -234,11 +235,11 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         Some((b, _)) => b.clone(),
         None => bake_level(&sc.level, &sc.links, &sc.ops, a.max_depth as usize, None)?.1,
     };
-    let dict_file =
-        AssetFile::open(&a.scene.dict).with_context(|| format!("cannot open {}", a.scene.dict.display()))?;
+    let dict_file = AssetFile::open(a.scene.dict_path())
+        .with_context(|| format!("cannot open {}", a.scene.dict_path().display()))?;
     let dict_asset = dict_file.asset();
     let rd = MrtDictionary::from_asset(&dict_asset)
-        .map_err(|e| CliError::input(anyhow!("{}: {e}", a.scene.dict.display())))?;
+        .map_err(|e| CliError::input(anyhow!("{}: {e}", a.scene.dict_path().display())))?;
     let level_asset = OwnedAsset::parse(&level_bytes).map_err(CliError::internal)?;
     let la = level_asset.asset();
     let rl = MrtLevel::from_asset(&la, &rd).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
