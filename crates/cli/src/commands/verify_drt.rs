@@ -315,6 +315,31 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         .map(|e| e * f64::from(scale))
         .collect::<Vec<_>>();
 
+    // inpainting shows where a bilinear read of the light map mixes inside and outside texels
+    // (Fig. 5.3): texel corners next to inside texels, themselves outside clutter, read with
+    // and without inpainting (the latter from a bake with --no-inpaint)
+    let boundary = boundary_points(&scene, &sc, &tex, drt.operators());
+    let (mut b_with, mut b_without) = (Vec::new(), Vec::new());
+    if !boundary.is_empty() {
+        let mut p2 = params.clone();
+        p2.inpaint = false;
+        let bytes2 = bake_scene(&sc, &p2, ProgressMode::None)?.1;
+        let asset2 = OwnedAsset::parse(&bytes2).map_err(CliError::internal)?;
+        let rd2 = MrtDictionary::from_asset(&dict_asset).map_err(|e| CliError::input(anyhow!("{e}")))?;
+        let rl2 = MrtLevel::from_asset(&la, &rd2).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+        let ops2 = DrtOperators::from_asset(&asset2.asset(), &rd2, &rl2)
+            .map_err(|e| CliError::input(anyhow!("DRT operators: {e}")))?;
+        let mut mrt2 = MrtRuntime::new(rd2, rl2);
+        let mut drt2 = DrtRuntime::new(ops2, &mrt2);
+        let (mut s2, mut c2) = (vec![0.0f32; n], vec![0.0f32; m]);
+        drt2.one_bounce(&mut mrt2, &l_d, &l_dc, ch, scale, Paths::ALL, &mut s2, &mut c2);
+        for (_, w) in &boundary {
+            b_with.push(w.iter().map(|&(t, x)| x * s_drt[t]).sum::<f64>());
+            b_without.push(w.iter().map(|&(t, x)| x * f64::from(s2[t])).sum::<f64>());
+        }
+    }
+    recv.extend(boundary.iter().map(|(r, _)| *r));
+
     // the reference
     let rep = Reporter::new("verify drt", mode);
     let done = AtomicU64::new(0);
@@ -341,7 +366,9 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
     }
     let inside = keep.iter().filter(|&&k| !k).count();
     let (r1, rm) = (&r.one_bounce[..n], &r.multi_bounce[..n]);
-    let (rc1, rcm) = (&r.one_bounce[n..], &r.multi_bounce[n..]);
+    let (rc1, rcm) = (&r.one_bounce[n..n + m], &r.multi_bounce[n..n + m]);
+    let rb1 = &r.one_bounce[n + m..];
+    let all_b = vec![true; boundary.len()];
     let per_block: Vec<Value> = (0..sc.level.blocks.len())
         .map(|b| {
             let rg = tex.offsets[b]..tex.offsets[b + 1];
@@ -379,7 +406,10 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         "rel_error_clutter_cb_multi_bounce": rel(&to64(&c_multi), rcm, cm),
         "reference_noise": norm_ratio(&r.one_half_difference[..n], r1, &keep),
         "reference_noise_multi_bounce": norm_ratio(&r.multi_half_difference[..n], rm, &keep),
-        "reference_noise_clutter": norm_ratio(&r.one_half_difference[n..], rc1, cm),
+        "reference_noise_clutter": norm_ratio(&r.one_half_difference[n..n + m], rc1, cm),
+        "boundary_points": boundary.len(),
+        "rel_error_boundary_inpainted": if boundary.is_empty() { Value::Null } else { json!(rel(&b_with, rb1, &all_b)) },
+        "rel_error_boundary_without_inpainting": if boundary.is_empty() { Value::Null } else { json!(rel(&b_without, rb1, &all_b)) },
         "ms_runtime": ms_runtime,
         "ms_runtime_mrt": ms_mrt,
         "per_block": per_block,
@@ -421,6 +451,60 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         }
     }
     Ok(ExitCode::Ok)
+}
+
+/// Texel corners of receiving blocks where a bilinear read mixes texels inside clutter with
+/// texels outside (at least one of each among the four), that are themselves outside
+/// clutter (at most half of 64 cosine rays meet clutter from behind, the bake's test): the
+/// receiver and the four `(global texel, ¼)` weights of the read.
+fn boundary_points(
+    scene: &Scene<'_>,
+    sc: &DrtScene,
+    tex: &penumbra_transport::level_reference::LevelTexels,
+    ops: &DrtOperators<'_>,
+) -> Vec<(Receiver, [(usize, f64); 4])> {
+    use penumbra_transport::drt::RayHit;
+    use penumbra_transport::shape::face_point;
+    let dirs = penumbra_transport::gather::DirectionSet::cosine(64);
+    let mut out = Vec::new();
+    for rc in ops.receivers.chunks_exact(3) {
+        let (b, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
+        let mask = &ops.inpaint_mask[off..off + cnt];
+        if mask.iter().all(|&v| v == 0) {
+            continue;
+        }
+        let blk = &sc.level.blocks[b];
+        let t = &sc.dict.shapes[blk.shape].texels;
+        let r = t.res;
+        for f in penumbra_transport::drt::present_faces(sc.ops.missing[blk.shape]) {
+            for j in 1..r {
+                for i in 1..r {
+                    let q = [t.index(f, i - 1, j - 1), t.index(f, i, j - 1), t.index(f, i - 1, j), t.index(f, i, j)];
+                    let ins = q.iter().filter(|&&x| mask[x] != 0).count();
+                    if ins == 0 || ins == 4 {
+                        continue;
+                    }
+                    let p = blk.to_world(face_point(f, i as f64 / r as f64, j as f64 / r as f64));
+                    let nn = blk.normal(f);
+                    let o = [p[0] + 1e-7 * nn[0], p[1] + 1e-7 * nn[1], p[2] + 1e-7 * nn[2]];
+                    let (tu, tv) = penumbra_math::warp::orthonormal_basis(nn);
+                    let back = dirs
+                        .dirs
+                        .iter()
+                        .filter(|l| {
+                            let d: [f64; 3] = core::array::from_fn(|k| l[0] * tu[k] + l[1] * tv[k] + l[2] * nn[k]);
+                            matches!(scene.cast(b, o, d), RayHit::Clutter(_, h) if !h.front)
+                        })
+                        .count();
+                    if 2 * back > dirs.len() {
+                        continue;
+                    }
+                    out.push((Receiver { block: b, point: p, normal: nn }, q.map(|x| (tex.offsets[b] + x, 0.25))));
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Top view of the floors, one panel per series (same tone scale), texels inside clutter
