@@ -137,6 +137,20 @@ fn verify_corridor_interfaces_beat_none_and_report_every_key() {
     let w: Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(w["rel_error_one_bounce"], v["rel_error_one_bounce"]);
     assert_eq!(w["block_pairs"], v["block_pairs"]);
+    // the quality gate: above the measured error passes, below it exits 1 (reports still out)
+    let gate = |x: f64| {
+        run(penumbra()
+            .args(["verify", "mrt", "--rays", "256", "--bounces", "4", "--dict"])
+            .arg(&d)
+            .arg("--level")
+            .arg(&asset)
+            .arg("--max-rel-error")
+            .arg(x.to_string()))
+    };
+    assert_eq!(gate(1.01 * with).0, 0);
+    let (code, _, stderr) = gate(0.99 * with);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("quality gate failed"), "{stderr}");
     // … and only with its own dictionary
     let other = dir.path().join("other.mrtd");
     let (code, _, stderr) = run(penumbra().args(["mrt", "dict"]).args(SMALL).args(["--seed", "5", "-o"]).arg(&other));
@@ -151,6 +165,20 @@ fn verify_corridor_interfaces_beat_none_and_report_every_key() {
         run(penumbra().args(["verify", "mrt", "--corridor", "3", "--dict"]).arg(&d).arg("--lights").arg(&lights));
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("l.toml") && stderr.contains("light 0"), "{stderr}");
+    // a light 0.05 block above the floor is outside the light prior (nearest prior light: 1/7)
+    std::fs::write(&lights, "[[light]]\nposition = [0.5, 0.05, 0.5]\n[[light]]\nposition = [0.5, 0.5, 0.5]\n").unwrap();
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "mrt", "--corridor", "3", "--rays", "16", "--json", "--dict"])
+        .arg(&d)
+        .arg("--lights")
+        .arg(&lights));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let o = v["lights_outside_prior"].as_array().unwrap();
+    assert_eq!(o.len(), 1, "{v}");
+    assert_eq!(o[0]["light"], 0);
+    assert!((o[0]["distance"].as_f64().unwrap() - 0.05).abs() < 1e-9);
+    assert!(stderr.contains("warning: light 0"), "{stderr}");
 }
 
 #[test]

@@ -178,6 +178,34 @@ impl Level {
                 return Err(bad(format!("scale {:?} must be finite and positive", b.scale)));
             }
         }
+        // blocks are boxes (quarter turns): two that share volume would put two sets of walls
+        // in one place, which no operator models (connected blocks only touch at a face)
+        let boxes: Vec<[[f64; 3]; 2]> = self
+            .blocks
+            .iter()
+            .map(|b| {
+                let (p, q) = (b.to_world([0.0; 3]), b.to_world([1.0; 3]));
+                [core::array::from_fn(|k| p[k].min(q[k])), core::array::from_fn(|k| p[k].max(q[k]))]
+            })
+            .collect();
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                let (a, b) = (&boxes[i], &boxes[j]);
+                let tol =
+                    1e-6 * (0..3).map(|k| (a[1][k] - a[0][k]).min(b[1][k] - b[0][k])).fold(f64::INFINITY, f64::min);
+                let depth: [f64; 3] = core::array::from_fn(|k| a[1][k].min(b[1][k]) - a[0][k].max(b[0][k]));
+                if depth.iter().all(|&d| d > tol) {
+                    return Err(LevelError::Block {
+                        index: i,
+                        message: format!(
+                            "overlaps block {j} (they share a box of {:?} world units; blocks may only touch, at \
+                             connected openings or walls)",
+                            depth.map(|d| (d * 1000.0).round() / 1000.0)
+                        ),
+                    });
+                }
+            }
+        }
         let mut links: Links = vec![[None; FACE_COUNT]; self.blocks.len()];
         for (ci, c) in self.connections.iter().enumerate() {
             let bad = |message: String| LevelError::Connection { index: ci, a: c.a, b: c.b, message };
@@ -431,5 +459,18 @@ mod tests {
         let mut c = corridor(3, &missing).unwrap();
         c.connections.push(c.connections[0]);
         assert!(c.validate(&names, &missing).unwrap_err().to_string().contains("connected twice"));
+        // a block that shares volume with another (here a fourth, unconnected, half inside
+        // block 1) is refused; touching at a face (every corridor) is fine
+        let mut c = corridor(3, &missing).unwrap();
+        let mut extra = c.blocks[1].clone();
+        extra.translation[2] += 0.5;
+        c.blocks.push(extra);
+        let e = c.validate(&names, &missing).unwrap_err().to_string();
+        assert!(e.starts_with("block 1:") && e.contains("overlaps block 3"), "{e}");
+        let mut c = corridor(3, &missing).unwrap();
+        let mut extra = c.blocks[1].clone();
+        extra.translation[0] += 1.0;
+        c.blocks.push(extra);
+        c.validate(&names, &missing).unwrap();
     }
 }
