@@ -55,6 +55,7 @@ fn json_keys_are_present_and_honest() {
         "reference_rel_error",
         "enrichment_rel_error_before",
         "enrichment_rel_error_after",
+        "enrichment_rel_error_enriched_only",
         "enrichment",
         "shapes",
         "bytes",

@@ -285,6 +285,50 @@ pub struct RedBox {
     /// The enriched operators evaluated without the same-face exclusion (the thesis's
     /// runtime rule), for comparison.
     pub enriched_without_exclusion: RedBoxError,
+    /// The case that can fail under the exclusion (App. A's test cannot: with one white face
+    /// both the reference and the excluded prediction of its non-red light are zero): floor
+    /// and ceiling white, four red walls; the green light one white face sends to the other is
+    /// real and must be predicted.
+    pub two_white: TwoWhite,
+}
+
+/// Errors of the two-white-faces case (floor and ceiling white, four walls red), per runtime.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TwoWhite {
+    /// Green on the white faces against `F·green`, relative, without enrichment (plain rule).
+    pub green_rel_error_before: f64,
+    /// The same, enriched operators, plain rule (what enrichment alone does).
+    pub green_rel_error_enriched: f64,
+    /// The same, enriched operators with the same-face exclusion (enrichment and exclusion).
+    pub green_rel_error_enriched_excluded: f64,
+    /// RGB error on the white faces, same three runtimes.
+    pub rgb_rel_error: [f64; 3],
+}
+
+/// Green light on the white faces `faces` of the closed cube (the other faces red: zero green
+/// reflectance) against `F·green`, and the RGB error there: `(green, rgb)`.
+pub fn two_white_error(
+    tex: &Texels,
+    f: MatRef<'_, f64>,
+    e: MatRef<'_, f64>,
+    r: &Reduced,
+    faces: &[usize],
+    exclude_same_face: bool,
+) -> (f64, f64) {
+    let white: Vec<usize> = faces.iter().flat_map(|&g| tex.face_range(g)).collect();
+    let is_white = |i: usize| white.binary_search(&i).is_ok();
+    let green = Mat::from_fn(e.nrows(), e.ncols(), |i, j| if is_white(i) { e[(i, j)] } else { 0.0 });
+    let on_white = |a: &Mat<f64>| Mat::from_fn(white.len(), a.ncols(), |i, j| a[(white[i], j)]);
+    let (rr, rg) = (on_white(&mul(f, e)), on_white(&mul(f, green.as_ref())));
+    let (mr, mg) = (
+        on_white(&predict_with(tex, r, e, exclude_same_face)),
+        on_white(&predict_with(tex, r, green.as_ref(), exclude_same_face)),
+    );
+    let er2 = frobenius((&mr - &rr).as_ref()).powi(2);
+    let eg2 = frobenius((&mg - &rg).as_ref()).powi(2);
+    let ref2 = frobenius(rr.as_ref()).powi(2) + 2.0 * frobenius(rg.as_ref()).powi(2);
+    let g = frobenius(rg.as_ref());
+    (if g > 0.0 { eg2.sqrt() / g } else { 0.0 }, if ref2 > 0.0 { ((er2 + 2.0 * eg2) / ref2).sqrt() } else { 0.0 })
 }
 
 /// The operators and samples of one shape.
@@ -334,8 +378,10 @@ pub struct DictMetrics {
     pub reference_rel_error: BTreeMap<String, f64>,
     /// The five-red-faces error without enrichment.
     pub enrichment_rel_error_before: f64,
-    /// The same after enrichment.
+    /// The same after enrichment *and* the same-face exclusion (the dictionary's runtime).
     pub enrichment_rel_error_after: f64,
+    /// The five-red-faces error with enrichment alone (plain rule): what enrichment does.
+    pub enrichment_rel_error_enriched_only: f64,
     /// The five-red-faces case in full.
     pub enrichment: RedBox,
     /// Everything per shape.
@@ -410,6 +456,7 @@ pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progres
         reference_rel_error: BTreeMap::new(),
         enrichment_rel_error_before: enrichment.rel_error_before,
         enrichment_rel_error_after: enrichment.rel_error_after,
+        enrichment_rel_error_enriched_only: enrichment.enriched_without_exclusion.rgb,
         enrichment,
         shapes: BTreeMap::new(),
         interfaces: Vec::new(),
@@ -668,7 +715,17 @@ fn red_box(tex: &Texels, f: MatRef<'_, f64>, e: &Mat<f64>, before: &Reduced, aft
     let b = red_box_error(tex, f, e.as_ref(), before, false);
     let p = red_box_error(tex, f, e.as_ref(), after, false);
     let a = red_box_error(tex, f, e.as_ref(), after, exclude);
+    // floor (−y, face 2) and ceiling (+y, face 3) white
+    let tw = [(before, false), (after, false), (after, exclude)]
+        .map(|(r, x)| two_white_error(tex, f, e.as_ref(), r, &[2, 3], x));
+    let two_white = TwoWhite {
+        green_rel_error_before: tw[0].0,
+        green_rel_error_enriched: tw[1].0,
+        green_rel_error_enriched_excluded: tw[2].0,
+        rgb_rel_error: [tw[0].1, tw[1].1, tw[2].1],
+    };
     RedBox {
+        two_white,
         rel_error_before: b.rgb,
         rel_error_after: a.rgb,
         non_red_on_white_before: b.non_red,
