@@ -400,9 +400,21 @@ pub struct VerifyFivArgs {
     /// Write runtime | reference | difference as a PNG.
     #[arg(long, value_name = "OUT.png")]
     pub image: Option<PathBuf>,
-    /// Exit with code 1 when nrmse_visible exceeds this.
+    /// Exit with code 1 when nrmse (all receivers) exceeds this.
     #[arg(long, value_name = "X")]
     pub max_nrmse: Option<f64>,
+    /// Exit with code 1 when nrmse_visible exceeds this.
+    #[arg(long, value_name = "X")]
+    pub max_nrmse_visible: Option<f64>,
+    /// Plane receivers: put the plane D·R below the occluders' lowest point (the occluders
+    /// raised D radii; 0 to 1000) and widen the square to ±(3 + D)R.
+    #[arg(long, value_name = "D")]
+    pub distance: Option<f64>,
+    /// Cast the reference against the stored environment cube supersampled to this face size
+    /// (a multiple of the bake's cube size; each texel split into equal sub-texels), so the
+    /// error of treating each texel as one direction is measured too.
+    #[arg(long, value_name = "N")]
+    pub reference_cube_size: Option<usize>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,

@@ -19,7 +19,8 @@
 //!
 //! # Inside flags
 //! A sample on or inside the ball (`ρ ≤ R`) is flagged inside when the generalized winding
-//! number of the mesh is ≥ ½ there (robust for open meshes such as the scanned bunny). The
+//! number `w` of the mesh has `|w| ≥ ½` there (robust for open meshes such as the scanned
+//! bunny, and for either orientation of the triangles). The
 //! runtime drops flagged samples from its interpolation (FIV §4.3.2), so their FIV is not
 //! computed: it is stored as 0 and no ray is cast.
 //!
@@ -116,9 +117,11 @@ impl Occluder {
         self.frame
     }
 
-    /// Whether `p` is inside the mesh (generalized winding number ≥ ½).
+    /// Whether `p` is inside the mesh: `|w| ≥ ½` for the generalized winding number `w`, so
+    /// an inside-out mesh (consistently reversed triangles, `w ≈ −1` inside) is flagged the
+    /// same as the one authored outward.
     pub fn is_inside(&self, p: [f64; 3]) -> bool {
-        self.winding.is_inside(p)
+        self.winding.winding_number(p).abs() >= 0.5
     }
 }
 

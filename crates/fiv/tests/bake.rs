@@ -143,6 +143,23 @@ fn sphere_cap_fiv_matches_the_analytic_integral() {
     }
 }
 
+/// An inside-out sphere (every triangle reversed: winding number −1 inside) is flagged the
+/// same as the outward one.
+#[test]
+fn inside_flags_do_not_depend_on_the_winding() {
+    let mut mesh = uv_sphere([0.5, 0.0, 0.0], 1.0, 32, 64);
+    let light = env(4);
+    let p = params(4, 3, 7, 0.0, 1.5);
+    let outward = bake(&Occluder::new(mesh.clone()).unwrap(), &light, &p, Shard::WHOLE, &NoProgress).unwrap();
+    for t in &mut mesh.indices {
+        t.swap(1, 2);
+    }
+    let inverted = bake(&Occluder::new(mesh).unwrap(), &light, &p, Shard::WHOLE, &NoProgress).unwrap();
+    assert_eq!(outward.stats.inside_samples, 4 * 3 * 4);
+    assert_eq!(inverted.inside, outward.inside);
+    assert_eq!(inverted.fiv, outward.fiv);
+}
+
 #[test]
 fn inside_flags_of_a_sphere() {
     let mesh = uv_sphere([0.5, 0.0, 0.0], 1.0, 32, 64);

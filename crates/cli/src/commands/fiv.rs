@@ -29,6 +29,60 @@ pub struct Input<T> {
     pub name: String,
     /// blake3 of the file bytes, or of the builtin's name and the tool version.
     pub blake3: String,
+    /// What the import did (`{}` for builtins), for `--json` and the text report.
+    pub report: Value,
+    /// The import's notes, one sentence each (shown as warnings).
+    pub warnings: Vec<String>,
+}
+
+/// The import report of an occluder mesh as JSON, and its warnings.
+fn mesh_report(
+    scene: &penumbra_geometry::Scene,
+    r: &penumbra_geometry::import::ImportReport,
+    spec: &str,
+) -> (Value, Vec<String>) {
+    let mut warnings: Vec<String> = r.warnings.iter().map(|w| format!("{spec}: {w}")).collect();
+    if r.dropped_triangles() > 0 {
+        warnings.push(format!(
+            "{spec}: {} of {} triangles dropped (repeated index {}, zero area {}, duplicate {})",
+            r.dropped_triangles(),
+            r.source_triangles,
+            r.clean.dropped_repeated_index,
+            r.clean.dropped_zero_area,
+            r.clean.dropped_duplicate
+        ));
+    }
+    if !scene.skins.is_empty() {
+        warnings.push(format!("{spec}: {} skin(s) taken at the rest pose (the occluder is rigid)", scene.skins.len()));
+    }
+    let v = json!({
+        "source_triangles": r.source_triangles,
+        "dropped_triangles": r.dropped_triangles(),
+        "dropped_repeated_index": r.clean.dropped_repeated_index,
+        "dropped_zero_area": r.clean.dropped_zero_area,
+        "dropped_duplicate": r.clean.dropped_duplicate,
+        "skipped_elements": r.skipped_elements,
+        "converted_strips_fans": r.converted_strips_fans,
+        "skins_at_rest_pose": scene.skins.len(),
+        "warnings": r.warnings,
+    });
+    (v, warnings)
+}
+
+/// The load report of an environment map as JSON, and its warnings.
+fn env_report(r: &penumbra_geometry::env::EnvReport, spec: &str) -> (Value, Vec<String>) {
+    let mut warnings: Vec<String> = r.warnings.iter().map(|w| format!("{spec}: {w}")).collect();
+    if r.negative_texels_clamped > 0 {
+        warnings.push(format!("{spec}: {} negative channel values clamped to 0", r.negative_texels_clamped));
+    }
+    let v = json!({
+        "width": r.width,
+        "height": r.height,
+        "negative_texels_clamped": r.negative_texels_clamped,
+        "not_2_to_1": r.width != 2 * r.height,
+        "warnings": r.warnings,
+    });
+    (v, warnings)
 }
 
 fn builtin_hash(name: &str) -> String {
@@ -50,13 +104,20 @@ pub fn load_occluder(spec: &str) -> Result<Input<TriMesh>, CliError> {
                 )));
             }
         };
-        return Ok(Input { data: mesh, name: spec.to_string(), blake3: builtin_hash(spec) });
+        return Ok(Input {
+            data: mesh,
+            name: spec.to_string(),
+            blake3: builtin_hash(spec),
+            report: json!({}),
+            warnings: Vec::new(),
+        });
     }
     let path = Path::new(spec);
-    let (scene, _report) =
+    let (scene, report) =
         penumbra_geometry::load_mesh(path).with_context(|| format!("cannot load occluder mesh {}", path.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    Ok(Input { data: scene.mesh, name, blake3: hash_file(path)? })
+    let (report, warnings) = mesh_report(&scene, &report, &name);
+    Ok(Input { data: scene.mesh, name, blake3: hash_file(path)?, report, warnings })
 }
 
 fn rotate(env: EnvMap, r: Rotation, spec: &str) -> Result<EnvMap, CliError> {
@@ -79,14 +140,21 @@ pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Inpu
             }
         };
         let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
-        return Ok(Input { data: cube, name: spec.to_string(), blake3: builtin_hash(spec) });
+        return Ok(Input {
+            data: cube,
+            name: spec.to_string(),
+            blake3: builtin_hash(spec),
+            report: json!({}),
+            warnings: Vec::new(),
+        });
     }
     let path = Path::new(spec);
-    let (env, _report) = penumbra_geometry::load_env_map(path)
+    let (env, report) = penumbra_geometry::load_env_map(path)
         .with_context(|| format!("cannot load environment map {}", path.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let (report, warnings) = env_report(&report, &name);
     let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
-    Ok(Input { data: cube, name, blake3: hash_file(path)? })
+    Ok(Input { data: cube, name, blake3: hash_file(path)?, report, warnings })
 }
 
 /// Parses `AxPxK`.
@@ -230,6 +298,9 @@ pub fn bake_to(job: &FivJob, shard: Shard, output: &Path, mode: ProgressMode) ->
         "shard": meta.shard,
         "cache_key": key,
         "output": output.display().to_string(),
+        "mesh_import": mesh.report,
+        "env_import": env.report,
+        "warnings": mesh.warnings.iter().chain(&env.warnings).collect::<Vec<_>>(),
     });
     Ok(FivOutcome { report, seconds: start.elapsed().as_secs_f64() })
 }
@@ -289,6 +360,9 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 v["inside_samples"],
                 v["radius"].as_f64().unwrap_or(f64::NAN),
             );
+            for w in v["warnings"].as_array().into_iter().flatten() {
+                eprintln!("warning: {}", w.as_str().unwrap_or_default());
+            }
         }
     }
     Ok(ExitCode::Ok)
