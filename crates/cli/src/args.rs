@@ -259,6 +259,21 @@ pub struct FivArgs {
 pub enum FivCommand {
     /// Join the shards of one bake (`--shard K/N`, any order) into the bytes a single run writes.
     Merge(FivMergeArgs),
+    /// Export a table for the GPU: a KTX2 RGBA32F 3D texture (docs/fiv.md, "GPU export").
+    Export(FivExportArgs),
+}
+
+/// `penumbra fiv export`.
+#[derive(Debug, Args)]
+pub struct FivExportArgs {
+    /// The FIVT asset.
+    pub asset: PathBuf,
+    /// Output KTX2 file (written atomically; parent directories are created).
+    #[arg(long, value_name = "OUT.ktx2")]
+    pub ktx2: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `penumbra fiv` bake options.

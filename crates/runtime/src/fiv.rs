@@ -201,6 +201,12 @@ impl<'a> FivTable<'a> {
     /// centre: `u = θA/2π ∈ [0, A)`, `v = φ(P−1)/π`, `w = (ρ/R − r_min)(K−1)/(r_max − r_min)`
     /// (unclamped).
     pub fn grid_coords(&self, rel: [f32; 3]) -> [f32; 3] {
+        self.coords(rel).0
+    }
+
+    /// [`Self::grid_coords`] and `ρ/R`.
+    #[inline]
+    fn coords(&self, rel: [f32; 3]) -> ([f32; 3], f32) {
         let [a, p, k] = self.dims;
         let x1 = dot(rel, self.basis[0]);
         let x2 = dot(rel, self.basis[1]);
@@ -215,8 +221,9 @@ impl<'a> FivTable<'a> {
         } else {
             (0.0, 0.0)
         };
-        let w = (rho / self.radius - self.r_min) / (self.r_max - self.r_min) * (k - 1) as f32;
-        [theta / TAU * a as f32, phi / PI * (p - 1) as f32, w]
+        let rho_r = rho / self.radius;
+        let w = (rho_r - self.r_min) / (self.r_max - self.r_min) * (k - 1) as f32;
+        ([theta / TAU * a as f32, phi / PI * (p - 1) as f32, w], rho_r)
     }
 
     /// The occluded-environment FIV `[rgb][xyz]` for a receiver at `rel` = receiver − occluder
@@ -233,7 +240,7 @@ impl<'a> FivTable<'a> {
     /// direction fixed). Measured in docs/fiv.md: lower NRMSE in every case tried.
     pub fn occluded_fiv(&self, rel: [f32; 3]) -> Option<[[f32; 3]; 3]> {
         let [a, p, k] = self.dims;
-        let [u, v, w] = self.grid_coords(rel);
+        let ([u, v, w], rho_r) = self.coords(rel);
         let uf = u.floor();
         let fu = (u - uf).clamp(0.0, 1.0);
         let i0 = (uf as i64).rem_euclid(a as i64) as usize;
@@ -249,7 +256,7 @@ impl<'a> FivTable<'a> {
         // fall-off with their true ρ); both at least 1 in the fall-off factor, which only
         // holds outside the bounding ball
         let shell = |kk: usize| self.r_min + (self.r_max - self.r_min) * kk as f32 / (k - 1) as f32;
-        let rho = (dot(rel, rel).sqrt() / self.radius).max(self.r_min).max(1.0);
+        let rho = rho_r.max(self.r_min).max(1.0);
         let mut acc = [[0.0f32; 3]; 3];
         let mut wsum = 0.0f32;
         let mut valid = 0u32;

@@ -1,6 +1,6 @@
 //! `penumbra fiv`: the FIV occlusion bake (FIV §4.2), and `penumbra fiv merge` for shards.
 
-use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivMergeArgs, UpArg};
+use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivExportArgs, FivMergeArgs, UpArg};
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::{ensure_parent, hash_file};
@@ -404,10 +404,46 @@ fn run_merge(a: &FivMergeArgs) -> Result<ExitCode, CliError> {
     Ok(ExitCode::Ok)
 }
 
-/// Runs `penumbra fiv` / `penumbra fiv merge`.
+fn run_export(a: &FivExportArgs) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let file = AssetFile::open(&a.asset).with_context(|| format!("cannot read FIV asset {}", a.asset.display()))?;
+    let asset = file.asset();
+    let bytes = penumbra_fiv::ktx2::to_ktx2(&asset, concat!("penumbra ", env!("CARGO_PKG_VERSION")))
+        .map_err(|e| CliError::input(anyhow!("{}: {e}", a.asset.display())))?;
+    ensure_parent(&a.ktx2)?;
+    penumbra_asset::write_file_atomic(&a.ktx2, &bytes).with_context(|| format!("cannot write {}", a.ktx2.display()))?;
+    let dims = asset.section("fiv").map(|s| s.dims().to_vec()).unwrap_or_default();
+    let v = json!({
+        "output": a.ktx2.display().to_string(),
+        "bytes": bytes.len(),
+        "format": "R32G32B32A32_SFLOAT",
+        "extent": [dims[0], dims[1], 3 * dims[2]],
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    if a.json {
+        print_json(&v);
+    } else {
+        #[allow(clippy::print_stderr)]
+        {
+            eprintln!(
+                "wrote {} ({} bytes): RGBA32F 3D texture {}×{}×{} (3 slabs of {} shells)",
+                a.ktx2.display(),
+                bytes.len(),
+                dims[0],
+                dims[1],
+                3 * dims[2],
+                dims[2]
+            );
+        }
+    }
+    Ok(ExitCode::Ok)
+}
+
+/// Runs `penumbra fiv` / `penumbra fiv merge` / `penumbra fiv export`.
 pub fn run(a: &FivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     match &a.command {
         Some(FivCommand::Merge(m)) => run_merge(m),
+        Some(FivCommand::Export(e)) => run_export(e),
         None => run_bake(&a.bake, mode),
     }
 }
