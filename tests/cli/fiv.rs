@@ -427,15 +427,15 @@ fn inside_samples_are_dropped_from_the_interpolation() {
     let t = FivTable::from_asset(&asset).unwrap();
     assert_eq!(b.stats.inside_samples, 8 * 5 * 2);
     // a receiver at a sample direction between shell 1 (inside) and shell 2 (outside, ρ = R):
-    // the lookup is the outside sample's FIV, whatever the weights (inside the ball there is
-    // no (R/ρ)² fall-off, see FivTable::occluded_fiv)
+    // the lookup is the outside sample's FIV, whatever the weights (scaled by (R/ρ)², the
+    // runtime's fall-off, see FivTable::occluded_fiv)
     let (i, j) = (3, 2);
     let d = layout.direction(i, j);
     for w in [0.2, 0.5, 0.9] {
         let rho = 0.5 + 0.5 * w;
         let got = t.occluded_fiv(d.map(|v| (v * rho) as f32)).unwrap();
         let s = layout.index(i, j, 2) * 9;
-        let scale = 1.0f32;
+        let scale = (1.0 / rho as f32).powi(2);
         for c in 0..3 {
             for x in 0..3 {
                 let want = b.fiv[s + c * 3 + x] * scale;
@@ -769,8 +769,7 @@ fn ktx2_export_sampled_trilinearly_matches_the_runtime() {
         let [u, vv, w] = t.grid_coords(rel);
         let vv = vv.clamp(0.0, (p - 1) as f32);
         let w = if w.is_finite() { w.clamp(0.0, (k - 1) as f32) } else { 0.0 };
-        let (r_min, _) = t.shell_range();
-        let s_hat = ((rho as f32).max(r_min).max(1.0)).powi(2);
+        let s_hat = ((rho as f32).max(t.scale_floor())).powi(2);
         let mut got = [[0.0f32; 3]; 3];
         let mut alpha = 0.0;
         for x in 0..3 {
@@ -800,4 +799,43 @@ fn ktx2_export_sampled_trilinearly_matches_the_runtime() {
     let (code, _, stderr) =
         run(penumbra().args(["fiv", "export"]).arg(dir.path().join("none.fivt")).arg("--ktx2").arg(&out));
     assert_eq!(code, 2, "{stderr}");
+}
+
+/// `--env a --env b -o a.fivt -o b.fivt`: one visibility pass, each output the bytes of its
+/// single-environment bake; mismatched counts are refused.
+#[test]
+fn several_environments_bake_the_single_run_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let hdr = dir.path().join("sky.hdr");
+    let mut bytes = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n".to_vec();
+    for n in 0..32u8 {
+        bytes.extend_from_slice(&[100 + 4 * n, 128, 200 - 3 * n, 129]);
+    }
+    std::fs::write(&hdr, &bytes).unwrap();
+    let common = ["--mesh", "builtin:torus", "--cube-size", "8", "--samples", "8x5x4", "--r-min", "0.5"];
+    let (m1, m2, s1, s2) = ["m1", "m2", "s1", "s2"].map(|n| dir.path().join(format!("{n}.fivt"))).into();
+    let (code, stdout, stderr) = run(penumbra()
+        .arg("fiv")
+        .args(common)
+        .args(["--env", "builtin:area-lights", "--env", hdr.to_str().unwrap(), "-o"])
+        .arg(&m1)
+        .arg("-o")
+        .arg(&m2)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["tables"].as_array().unwrap().len(), 2);
+    bake_json(&[&common[..], &["--env", "builtin:area-lights"]].concat(), &s1);
+    bake_json(&[&common[..], &["--env", hdr.to_str().unwrap()]].concat(), &s2);
+    assert_eq!(std::fs::read(&m1).unwrap(), std::fs::read(&s1).unwrap());
+    assert_eq!(std::fs::read(&m2).unwrap(), std::fs::read(&s2).unwrap());
+    assert_ne!(std::fs::read(&m1).unwrap(), std::fs::read(&m2).unwrap());
+    let (code, _, stderr) = run(penumbra()
+        .arg("fiv")
+        .args(common)
+        .args(["--env", "builtin:area-lights", "--env", hdr.to_str().unwrap(), "-o"])
+        .arg(dir.path().join("only.fivt")));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("one -o per --env"), "{stderr}");
+    assert!(!dir.path().join("only.fivt").exists());
 }

@@ -283,8 +283,10 @@ pub struct FivBakeArgs {
     #[arg(long, required = true)]
     pub mesh: Option<String>,
     /// Environment map (lat-long .exr or .hdr, OpenEXR orientation) or `builtin:area-lights`.
+    /// Repeat (with one `-o` per `--env`, in order) to bake a table per environment from one
+    /// visibility pass; each output has the bytes of its single-environment bake.
     #[arg(long, required = true)]
-    pub env: Option<String>,
+    pub env: Vec<String>,
     /// Rotate the environment by 180° about an axis before baking (exact texel permutation);
     /// `z180` brings the upside-down grace_latlong.exr probe upright.
     #[arg(long, value_enum, default_value_t = EnvRotateArg::None)]
@@ -313,9 +315,9 @@ pub struct FivBakeArgs {
     /// Bake only the azimuth slab K of N (0-based); `penumbra fiv merge` joins the slabs.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
-    /// Output asset (.fivt). Parent directories are created.
+    /// Output asset (.fivt), one per `--env`. Parent directories are created.
     #[arg(short = 'o', long, required = true)]
-    pub output: Option<PathBuf>,
+    pub output: Vec<PathBuf>,
     /// Print one JSON object with the results on stdout.
     #[arg(long)]
     pub json: bool,

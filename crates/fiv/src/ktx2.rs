@@ -7,7 +7,8 @@
 //! holding the FIVs' `x`-component (`x = 0, 1, 2` along the shell basis' *world* axes, the
 //! stored `[rgb][xyz]`). Texel `(i, j, x·K + k)` is
 //! `(ŝ_k²·FIV[i][j][k][r][x], ŝ_k²·FIV[…][g][x], ŝ_k²·FIV[…][b][x], α)` with
-//! `ŝ_k = max(ρ_k/R, 1)` and `α = 1 − inside[i][j][k]` (inside samples store FIV 0, so their
+//! `ŝ_k = max(ρ_k/R, δ)` (δ = `r_min`, or the second shell's radius when `r_min = 0`) and
+//! `α = 1 − inside[i][j][k]` (inside samples store FIV 0, so their
 //! colour is 0 too). One mip level, no supercompression, little-endian floats.
 //!
 //! # Sampling (what an engine's shader does)
@@ -15,7 +16,7 @@
 //! at normalised coordinates `((u + ½)/A, (v + ½)/P, (x·K + w + ½)/(3K))` with linear
 //! filtering: `w ∈ [0, K−1]` keeps every tap inside its slab (at `w = K−1` the upper tap has
 //! weight 0), so the stacking never blends two slabs. Then
-//! `FIV_rgb,x = tex.rgb / (tex.a · ŝ²)` with `ŝ = max(ρ/R, r_min, 1)`, which is the runtime's
+//! `FIV_rgb,x = tex.rgb / (tex.a · ŝ²)` with `ŝ = max(ρ/R, δ)`, which is the runtime's
 //! renormalised `Σ w_c (ŝ_c/ŝ)² FIV_c / Σ w_c` over the valid corners. (`tex.a = 0`: every
 //! corner with weight is inside; the runtime then takes the plain mean of any valid
 //! zero-weight corners, or no FIV at all — a shader treats it as no occlusion.)
@@ -45,15 +46,16 @@ fn f32_section<'a>(asset: &Asset<'a>, name: &str) -> Result<(Vec<f32>, Vec<usize
 /// The Khronos basic data format descriptor of RGBA32F (linear, BT.709 primaries), with its
 /// `dfdTotalSize` word first.
 fn dfd_rgba32f() -> Vec<u8> {
-    let mut w: Vec<u32> = Vec::new();
-    w.push(4 + 24 + 4 * 16); // dfdTotalSize
-    w.push(0); // vendorId 0 (Khronos), descriptorType 0 (basic)
-    w.push(2 | ((24 + 4 * 16) << 16)); // versionNumber 2, descriptorBlockSize
-    // colorModel 1 (RGBSDA), colorPrimaries 1 (BT709), transferFunction 1 (linear), flags 0
-    w.push(1 | (1 << 8) | (1 << 16));
-    w.push(0); // texelBlockDimension 1×1×1×1 (stored minus one)
-    w.push(16); // bytesPlane0 = 16
-    w.push(0); // bytesPlane4..7
+    let mut w: Vec<u32> = vec![
+        4 + 24 + 4 * 16,           // dfdTotalSize
+        0,                         // vendorId 0 (Khronos), descriptorType 0 (basic)
+        2 | ((24 + 4 * 16) << 16), // versionNumber 2, descriptorBlockSize
+        // colorModel 1 (RGBSDA), colorPrimaries 1 (BT709), transferFunction 1 (linear), flags 0
+        1 | (1 << 8) | (1 << 16),
+        0,  // texelBlockDimension 1×1×1×1 (stored minus one)
+        16, // bytesPlane0 = 16
+        0,  // bytesPlane4..7
+    ];
     for (n, channel) in [0u32, 1, 2, 15].into_iter().enumerate() {
         // bitOffset, bitLength − 1, channelType | FLOAT (0x80) | SIGNED (0x40)
         w.push((32 * n as u32) | (31 << 16) | ((channel | 0xC0) << 24));
@@ -107,13 +109,15 @@ pub fn to_ktx2(asset: &Asset<'_>, writer: &str) -> Result<Vec<u8>, FivError> {
     if depth > u32::MAX as usize || a * p * depth * 16 > isize::MAX as usize / 2 {
         return Err(bad("table too large for one texture"));
     }
+    // δ: the runtime's scale floor (the smallest positive shell radius)
+    let floor = if r_min > 0.0 { r_min } else { r_min + (r_max - r_min) * 1.0 / (k - 1) as f32 };
     // texel data, x fastest, then y (φ), then z (slab·K + ρ)
     let mut data = Vec::with_capacity(a * p * depth * 16);
     for x in 0..3 {
         for kk in 0..k {
             // ŝ_k in the runtime's f32 operations
             let shell = r_min + (r_max - r_min) * kk as f32 / (k - 1) as f32;
-            let sc = shell.max(1.0).powi(2);
+            let sc = shell.max(floor).powi(2);
             for j in 0..p {
                 for i in 0..a {
                     let s = (i * p + j) * k + kk;
@@ -134,7 +138,8 @@ pub fn to_ktx2(asset: &Asset<'_>, writer: &str) -> Result<Vec<u8>, FivError> {
         "r_max": r_max,
         "center": &frame[0..3],
         "basis": [&frame[3..6], &frame[6..9], &frame[9..12]],
-        "layout": "RGBA32F 3D texture A x P x 3K: slab x (FIV x, y, z component) holds ŝ_k²·FIV_rgb and α = 1 − inside; FIV = tex.rgb / (tex.a · ŝ²)",
+        "scale_floor": floor,
+        "layout": "RGBA32F 3D texture A x P x 3K: slab x (FIV x, y, z component) holds max(rho_k/R, scale_floor)^2 FIV_rgb and alpha = 1 - inside; FIV = tex.rgb / (tex.a max(rho/R, scale_floor)^2)",
     });
     let mut kvd = kv_entry("KTXwriter", format!("{writer}\0").as_bytes());
     kvd.extend(kv_entry("penumbra.fiv", format!("{meta}\0").as_bytes()));

@@ -41,7 +41,7 @@ pub mod reference;
 pub mod silhouette;
 
 pub use asset::{FIVT_KIND_VERSION, FIVT_SECTIONS, FivMeta, Storage, merge, to_asset};
-pub use bake::{BakeStats, Culling, FivBake, FivParams, FivTracer, Occluder, bake, bake_with};
+pub use bake::{BakeStats, Culling, FivBake, FivParams, FivTracer, Occluder, bake, bake_multi, bake_with};
 pub use error::FivError;
 pub use layout::{Frame, Shard, ShellLayout, UpAxis};
 pub use lighting::Lighting;

@@ -177,6 +177,17 @@ impl<'a> FivTable<'a> {
         (self.r_min, self.r_max)
     }
 
+    /// The smallest positive shell radius δ in units of R: `r_min`, or the second shell's
+    /// `r_min + (r_max − r_min)/(K−1)` when `r_min = 0`. The radial weighting of
+    /// [`Self::occluded_fiv`] uses `max(ρ_k/R, δ)` and `max(ρ/R, δ)`.
+    pub fn scale_floor(&self) -> f32 {
+        if self.r_min > 0.0 {
+            self.r_min
+        } else {
+            self.r_min + (self.r_max - self.r_min) * 1.0 / (self.dims[2] - 1) as f32
+        }
+    }
+
     /// Whether the table has shells inside the bounding ball (`r_min < 1`). Without them,
     /// self-shadowing ([`FivShader::self_shadowed`]) and receivers next to the occluder only
     /// get the innermost shell's FIV, whatever their distance.
@@ -231,10 +242,10 @@ impl<'a> FivTable<'a> {
     /// samples flagged inside and renormalising the rest. `None` when all 8 are inside.
     ///
     /// The trilinear weights apply to `(ρ̂_k/ρ̂)²·FIV_k` rather than to `FIV_k`, with
-    /// `ρ̂_k = max(ρ_k/R, 1)` and `ρ̂ = max(ρ/R, r_min, 1)` (exact at the samples; between
-    /// shells outside the bounding ball it follows the `(R/ρ)²` fall-off of the occluder's
-    /// solid angle instead of overestimating it; inside the ball, where no such fall-off
-    /// holds, it is plain trilinear). Receivers nearer than the innermost shell get that
+    /// `ρ̂_k = max(ρ_k/R, δ)` and `ρ̂ = max(ρ/R, δ)`, δ = [`Self::scale_floor`] (exact at the
+    /// samples; between shells it follows the `(R/ρ)²` fall-off of the occluder's solid angle
+    /// instead of overestimating it; with `r_min = 0` the first cell, whose inner shell is the
+    /// centre itself, is plain trilinear). Receivers nearer than the innermost shell get that
     /// shell's FIV; receivers beyond the outermost shell get its FIV times `(ρ_{K−1}/ρ)²`
     /// with their true ρ, the far-field limit (the occluder's solid angle ∝ 1/ρ², its
     /// direction fixed). Measured in docs/fiv.md: lower NRMSE in every case tried.
@@ -251,12 +262,13 @@ impl<'a> FivTable<'a> {
         let w = if w.is_finite() { w.clamp(0.0, (k - 1) as f32) } else { 0.0 };
         let k0 = (w.floor() as usize).min(k - 2);
         let fw = (w - k0 as f32).clamp(0.0, 1.0);
-        // ρ/R of a shell, and of the receiver: clamped up to r_min (nearer receivers get the
-        // innermost shell), not down to r_max (farther ones continue the outermost shell's
-        // fall-off with their true ρ); both at least 1 in the fall-off factor, which only
-        // holds outside the bounding ball
+        // ρ/R of a shell, and of the receiver: clamped up to the smallest positive shell
+        // radius δ (nearer receivers get the innermost shell; with r_min = 0 the first cell is
+        // plain trilinear instead of dividing by ρ² → 0), not down to r_max (farther ones
+        // continue the outermost shell's fall-off with their true ρ)
         let shell = |kk: usize| self.r_min + (self.r_max - self.r_min) * kk as f32 / (k - 1) as f32;
-        let rho = rho_r.max(self.r_min).max(1.0);
+        let floor = self.scale_floor();
+        let rho = rho_r.max(floor);
         let mut acc = [[0.0f32; 3]; 3];
         let mut wsum = 0.0f32;
         let mut valid = 0u32;
@@ -269,7 +281,7 @@ impl<'a> FivTable<'a> {
                     }
                     // interpolate ρ²·FIV: the occluded solid angle falls off like (R/ρ)², which
                     // linear interpolation of the FIV itself overestimates between shells
-                    let sc = (shell(kk).max(1.0) / rho).powi(2);
+                    let sc = (shell(kk).max(floor) / rho).powi(2);
                     let s = self.sample(ii, jj, kk).map(|r| r.map(|x| x * sc));
                     let wt = wu * wv * ww;
                     for c in 0..3 {

@@ -256,59 +256,104 @@ pub struct FivOutcome {
 
 /// Bakes (one shard of) a job and writes the asset atomically.
 pub fn bake_to(job: &FivJob, shard: Shard, output: &Path, mode: ProgressMode) -> Result<FivOutcome, CliError> {
+    let mut v = bake_many(std::slice::from_ref(job), shard, &[output.to_path_buf()], mode)?;
+    Ok(v.remove(0))
+}
+
+/// Bakes jobs that differ only in their environment from one visibility pass
+/// ([`penumbra_fiv::bake_multi`]) and writes `outputs[e]` for `jobs[e]`, each the bytes its
+/// job alone writes. `seconds` is the whole run's wall time in every outcome.
+pub fn bake_many(
+    jobs: &[FivJob],
+    shard: Shard,
+    outputs: &[PathBuf],
+    mode: ProgressMode,
+) -> Result<Vec<FivOutcome>, CliError> {
     let start = Instant::now();
-    let key = cache_key(job)?;
-    let mesh = load_occluder(&job.mesh)?;
-    let env = load_env(&job.env, job.env_rotate, job.cube_size)?;
-    let occ =
-        Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", job.mesh)))?;
-    let lighting = Lighting::new(env.data);
-    let reporter = Reporter::new("fiv", mode);
-    let b = penumbra_fiv::bake(&occ, &lighting, &job.params, shard, &reporter).map_err(CliError::input)?;
-    reporter.finish();
-    let inputs = json!({
-        "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},
-        "env": {"name": env.name, "blake3": env.blake3, "rotate": job.env_rotate.name()},
-    });
-    let ai = AssetInputs {
-        inputs,
-        cache_key: Some(key.clone()),
-        storage: job.storage,
-        env_cube: lighting.cube().texels(),
-        mesh: &mesh.data,
+    let Some(first) = jobs.first() else {
+        return Err(CliError::input(anyhow!("no environment to bake")));
     };
-    let asset = penumbra_fiv::to_asset(&b, &ai).map_err(CliError::input)?;
-    ensure_parent(output)?;
-    let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
-    let meta = penumbra_fiv::asset::meta_of(&b, &ai);
-    let l = job.params.layout;
-    let f = occ.frame();
-    let report = json!({
-        "samples": [l.azimuth, l.polar, l.radial],
-        "bytes": bytes,
-        "fiv_bytes": meta.metrics.fiv_bytes,
-        "rays_traced": b.stats.rays_traced,
-        "rays_hit": b.stats.rays_hit,
-        "rays_certified": b.stats.rays_certified,
-        "inside_samples": b.stats.inside_samples,
-        "center": f.center,
-        "radius": f.radius,
-        "cube_size": job.cube_size,
-        "storage": job.storage,
-        "shard": meta.shard,
-        "cache_key": key,
-        "output": output.display().to_string(),
-        "mesh_import": mesh.report,
-        "env_import": env.report,
-        "warnings": mesh.warnings.iter().chain(&env.warnings).collect::<Vec<_>>(),
-    });
-    Ok(FivOutcome { report, seconds: start.elapsed().as_secs_f64() })
+    if outputs.len() != jobs.len() {
+        return Err(CliError::input(anyhow!(
+            "{} environments but {} outputs: give one -o per --env (in the same order)",
+            jobs.len(),
+            outputs.len()
+        )));
+    }
+    for (i, o) in outputs.iter().enumerate() {
+        if outputs[..i].contains(o) {
+            return Err(CliError::input(anyhow!("-o {} is given twice", o.display())));
+        }
+    }
+    let keys: Vec<String> = jobs.iter().map(cache_key).collect::<Result<_, _>>()?;
+    let mesh = load_occluder(&first.mesh)?;
+    let envs: Vec<Input<CubeMap>> =
+        jobs.iter().map(|j| load_env(&j.env, j.env_rotate, j.cube_size)).collect::<Result<_, _>>()?;
+    let occ =
+        Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", first.mesh)))?;
+    let lightings: Vec<Lighting> = envs.iter().map(|e| Lighting::new(e.data.clone())).collect();
+    let refs: Vec<&Lighting> = lightings.iter().collect();
+    let reporter = Reporter::new("fiv", mode);
+    let bakes = penumbra_fiv::bake_multi(&occ, &refs, &first.params, shard, &reporter, penumbra_fiv::Culling::Auto)
+        .map_err(CliError::input)?;
+    reporter.finish();
+    let mut out = Vec::with_capacity(jobs.len());
+    for ((((job, env), lighting), b), (key, output)) in
+        jobs.iter().zip(&envs).zip(&lightings).zip(&bakes).zip(keys.iter().zip(outputs))
+    {
+        let inputs = json!({
+            "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},
+            "env": {"name": env.name, "blake3": env.blake3, "rotate": job.env_rotate.name()},
+        });
+        let ai = AssetInputs {
+            inputs,
+            cache_key: Some(key.clone()),
+            storage: job.storage,
+            env_cube: lighting.cube().texels(),
+            mesh: &mesh.data,
+        };
+        let asset = penumbra_fiv::to_asset(b, &ai).map_err(CliError::input)?;
+        ensure_parent(output)?;
+        let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
+        let meta = penumbra_fiv::asset::meta_of(b, &ai);
+        let l = job.params.layout;
+        let f = occ.frame();
+        let report = json!({
+            "samples": [l.azimuth, l.polar, l.radial],
+            "bytes": bytes,
+            "fiv_bytes": meta.metrics.fiv_bytes,
+            "rays_traced": b.stats.rays_traced,
+            "rays_hit": b.stats.rays_hit,
+            "rays_certified": b.stats.rays_certified,
+            "inside_samples": b.stats.inside_samples,
+            "center": f.center,
+            "radius": f.radius,
+            "cube_size": job.cube_size,
+            "storage": job.storage,
+            "shard": meta.shard,
+            "cache_key": key,
+            "output": output.display().to_string(),
+            "env": env.name,
+            "mesh_import": mesh.report,
+            "env_import": env.report,
+            "warnings": mesh.warnings.iter().chain(&env.warnings).collect::<Vec<_>>(),
+        });
+        out.push(FivOutcome { report, seconds: 0.0 });
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    for o in &mut out {
+        o.seconds = seconds;
+    }
+    Ok(out)
 }
 
 fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
-    let (Some(mesh), Some(env), Some(output)) = (&a.mesh, &a.env, &a.output) else {
+    let Some(mesh) = &a.mesh else {
         return Err(CliError::input(anyhow!("--mesh, --env and -o are required")));
     };
+    if a.env.is_empty() || a.output.is_empty() {
+        return Err(CliError::input(anyhow!("--mesh, --env and -o are required")));
+    }
     let up = match a.up {
         UpArg::Y => UpAxis::Y,
         UpArg::Z => UpAxis::Z,
@@ -319,41 +364,57 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         EnvRotateArg::Y180 => Rotation::Y180,
         EnvRotateArg::Z180 => Rotation::Z180,
     };
-    let job = FivJob::new(
-        mesh,
-        env,
-        rot,
-        parse_samples(&a.samples)?,
-        a.r_min,
-        a.r_max,
-        up,
-        a.cube_size as usize,
-        a.irradiance_size as usize,
-        a.half,
-    )?;
+    let jobs: Vec<FivJob> = a
+        .env
+        .iter()
+        .map(|env| {
+            FivJob::new(
+                mesh,
+                env,
+                rot,
+                parse_samples(&a.samples)?,
+                a.r_min,
+                a.r_max,
+                up,
+                a.cube_size as usize,
+                a.irradiance_size as usize,
+                a.half,
+            )
+        })
+        .collect::<Result<_, _>>()?;
     let shard = match &a.shard {
         Some(s) => {
             let (k, n) = super::bake::parse_shard(s)?;
             let sh = Shard { index: k, count: n };
-            sh.validate(job.params.layout.azimuth).map_err(|e| CliError::input(anyhow!("--shard: {e}")))?;
+            sh.validate(jobs[0].params.layout.azimuth).map_err(|e| CliError::input(anyhow!("--shard: {e}")))?;
             sh
         }
         None => Shard::WHOLE,
     };
-    let out = bake_to(&job, shard, output, mode)?;
-    let mut v = out.report;
-    v["seconds"] = json!(out.seconds);
+    let outs = bake_many(&jobs, shard, &a.output, mode)?;
+    let mut reports: Vec<Value> = outs
+        .into_iter()
+        .map(|o| {
+            let mut v = o.report;
+            v["seconds"] = json!(o.seconds);
+            v
+        })
+        .collect();
     if a.json {
-        print_json(&v);
+        if reports.len() == 1 {
+            print_json(&reports.remove(0));
+        } else {
+            print_json(&json!({ "tables": reports, "seconds": reports[0]["seconds"] }));
+        }
     } else {
         #[allow(clippy::print_stderr)]
-        {
+        for v in &reports {
             eprintln!(
                 "wrote {} ({} bytes, FIV data {} bytes) in {:.2} s\n  samples {}  rays {} ({} hit)  inside samples {}  R = {:.6}",
-                output.display(),
+                v["output"].as_str().unwrap_or_default(),
                 v["bytes"],
                 v["fiv_bytes"],
-                out.seconds,
+                v["seconds"].as_f64().unwrap_or(f64::NAN),
                 a.samples,
                 v["rays_traced"],
                 v["rays_hit"],
