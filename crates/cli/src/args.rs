@@ -309,6 +309,12 @@ pub struct FivBakeArgs {
     /// Face size of the diffuse irradiance cube map.
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     pub irradiance_size: u32,
+    /// Bake every environment turned by m/N of a full turn about +Y (m = 0..N, `--up y`; the
+    /// map's width must be a multiple of N), one `-o` per environment and step (environment
+    /// major), all from one visibility pass; the runtime blends the two nearest turns
+    /// (`penumbra_runtime::fiv::yaw_blend`).
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=360))]
+    pub yaw_steps: u32,
     /// Store the FIVs as f16 (18 bytes per sample instead of 36).
     #[arg(long)]
     pub half: bool,

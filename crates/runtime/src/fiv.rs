@@ -382,6 +382,22 @@ fn face_of(d: [f32; 3]) -> (usize, f32, f32) {
     (f, (0.5 * (sc / ma + 1.0)).clamp(0.0, 1.0), (0.5 * (tc / ma + 1.0)).clamp(0.0, 1.0))
 }
 
+/// The two tables and the blend weight for an environment turned by `yaw` radians about the
+/// shells' polar axis (from +Z toward +X for `--up y`), given tables baked at the `steps`
+/// turns `2πm/steps` (`penumbra fiv --yaw-steps`): `(m₀, m₁, f)` with
+/// `t = yaw·steps/2π`, `m₀ = ⌊t⌋ mod steps`, `m₁ = (m₀ + 1) mod steps`, `f = t − ⌊t⌋`; shade
+/// with both and take `(1 − f)·I(m₀) + f·I(m₁)`. `steps = 0` or a non-finite yaw give
+/// `(0, 0, 0)`.
+pub fn yaw_blend(steps: usize, yaw: f32) -> (usize, usize, f32) {
+    if steps == 0 || !yaw.is_finite() {
+        return (0, 0, 0.0);
+    }
+    let t = yaw / TAU * steps as f32;
+    let tf = t.floor();
+    let m0 = (tf as i64).rem_euclid(steps as i64) as usize;
+    (m0, (m0 + 1) % steps, (t - tf).clamp(0.0, 1.0))
+}
+
 /// Handling of occluders that straddle the receiver's plane (FIV §4.3.1, "Partial
 /// occluders").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

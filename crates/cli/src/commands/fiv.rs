@@ -126,9 +126,38 @@ fn rotate(env: EnvMap, r: Rotation, spec: &str) -> Result<EnvMap, CliError> {
     })
 }
 
+/// The lat-long map turned by `step/steps` of a full turn about +Y (from +Z toward +X, the
+/// shell azimuth θ of `--up y`): `L'(ω) = L(R⁻¹ω)` is the column shift
+/// `L'[x] = L[(x + step·W/steps) mod W]` (OpenEXR LatLong: `λ = π − 2π(x + ½)/W`), exact.
+fn yawed(env: EnvMap, step: usize, steps: usize, spec: &str) -> Result<EnvMap, CliError> {
+    if step == 0 {
+        return Ok(env);
+    }
+    let (w, h) = (env.width(), env.height());
+    if w % steps != 0 {
+        return Err(CliError::input(anyhow!(
+            "--yaw-steps {steps}: {spec} is {w} texels wide, not a multiple of {steps}, so its turns are not texel shifts"
+        )));
+    }
+    let shift = step * w / steps;
+    let src = env.texels();
+    let data = (0..h).flat_map(|y| (0..w).map(move |x| src[y * w + (x + shift) % w])).collect();
+    EnvMap::new(w, h, data).map_err(|e| CliError::input(anyhow!("{spec}: {e}")))
+}
+
 /// Loads an environment (lat-long file or `builtin:`), rotates it and resamples it to a
 /// cube map.
 pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Input<CubeMap>, CliError> {
+    load_env_yawed(spec, rotation, (0, 1), cube_size)
+}
+
+/// [`load_env`], then turned by `yaw.0/yaw.1` of a full turn about +Y ([`yawed`]).
+pub fn load_env_yawed(
+    spec: &str,
+    rotation: Rotation,
+    yaw: (usize, usize),
+    cube_size: usize,
+) -> Result<Input<CubeMap>, CliError> {
     if let Some(name) = spec.strip_prefix("builtin:") {
         let env = match name {
             "area-lights" => penumbra_geometry::env::procedural::area_lights(512, 256),
@@ -139,7 +168,7 @@ pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Inpu
                 )));
             }
         };
-        let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
+        let cube = CubeMap::from_latlong(&yawed(rotate(env, rotation, spec)?, yaw.0, yaw.1, spec)?, cube_size);
         return Ok(Input {
             data: cube,
             name: spec.to_string(),
@@ -153,7 +182,7 @@ pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Inpu
         .with_context(|| format!("cannot load environment map {}", path.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let (report, warnings) = env_report(&report, &name);
-    let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
+    let cube = CubeMap::from_latlong(&yawed(rotate(env, rotation, spec)?, yaw.0, yaw.1, spec)?, cube_size);
     Ok(Input { data: cube, name, blake3: hash_file(path)?, report, warnings })
 }
 
@@ -186,6 +215,8 @@ pub struct FivJob {
     pub cube_size: usize,
     /// `fiv` storage.
     pub storage: Storage,
+    /// The environment turned by `yaw.0/yaw.1` of a full turn about +Y (`(0, 1)`: as is).
+    pub yaw: (usize, usize),
 }
 
 impl FivJob {
@@ -215,6 +246,7 @@ impl FivJob {
             params,
             cube_size,
             storage: if half { Storage::F16 } else { Storage::F32 },
+            yaw: (0, 1),
         })
     }
 }
@@ -242,6 +274,11 @@ pub fn cache_key(job: &FivJob) -> Result<String, CliError> {
         "env": spec_hash(&job.env)?,
         "env_rotate": job.env_rotate.name(),
     });
+    let mut v = v;
+    if job.yaw.0 != 0 {
+        // absent for unturned environments, so their keys stay what they were
+        v["yaw"] = json!([job.yaw.0, job.yaw.1]);
+    }
     Ok(blake3::hash(v.to_string().as_bytes()).to_hex().to_string())
 }
 
@@ -288,7 +325,7 @@ pub fn bake_many(
     let keys: Vec<String> = jobs.iter().map(cache_key).collect::<Result<_, _>>()?;
     let mesh = load_occluder(&first.mesh)?;
     let envs: Vec<Input<CubeMap>> =
-        jobs.iter().map(|j| load_env(&j.env, j.env_rotate, j.cube_size)).collect::<Result<_, _>>()?;
+        jobs.iter().map(|j| load_env_yawed(&j.env, j.env_rotate, j.yaw, j.cube_size)).collect::<Result<_, _>>()?;
     let occ =
         Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", first.mesh)))?;
     let lightings: Vec<Lighting> = envs.iter().map(|e| Lighting::new(e.data.clone())).collect();
@@ -301,10 +338,13 @@ pub fn bake_many(
     for ((((job, env), lighting), b), (key, output)) in
         jobs.iter().zip(&envs).zip(&lightings).zip(&bakes).zip(keys.iter().zip(outputs))
     {
-        let inputs = json!({
+        let mut inputs = json!({
             "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},
             "env": {"name": env.name, "blake3": env.blake3, "rotate": job.env_rotate.name()},
         });
+        if job.yaw.0 != 0 {
+            inputs["env"]["yaw_turns"] = json!([job.yaw.0, job.yaw.1]);
+        }
         let ai = AssetInputs {
             inputs,
             cache_key: Some(key.clone()),
@@ -364,10 +404,14 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         EnvRotateArg::Y180 => Rotation::Y180,
         EnvRotateArg::Z180 => Rotation::Z180,
     };
-    let jobs: Vec<FivJob> = a
-        .env
+    let steps = a.yaw_steps as usize;
+    if steps > 1 && up != UpAxis::Y {
+        return Err(CliError::input(anyhow!("--yaw-steps turns the environment about +Y: it needs --up y")));
+    }
+    let specs: Vec<(&String, usize)> = a.env.iter().flat_map(|e| (0..steps).map(move |m| (e, m))).collect();
+    let jobs: Vec<FivJob> = specs
         .iter()
-        .map(|env| {
+        .map(|&(env, m)| {
             FivJob::new(
                 mesh,
                 env,
@@ -380,6 +424,10 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 a.irradiance_size as usize,
                 a.half,
             )
+            .map(|mut j| {
+                j.yaw = (m, steps);
+                j
+            })
         })
         .collect::<Result<_, _>>()?;
     let shard = match &a.shard {
