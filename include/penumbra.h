@@ -429,6 +429,17 @@ int32_t pn_fiv_scene_self_shadowed(struct pn_fiv_scene *s,
                                    float *out);
 
 /*
+ The two tables to blend for an environment turned by `yaw` radians about the shells'
+ polar axis, given tables baked at `steps` turns (`penumbra fiv --yaw-steps`; asset spec
+ §15.2 step 9): indices into `m0`, `m1` and the weight of `m1` into `f` (shade with both,
+ `(1 − f)·I(m0) + f·I(m1)`). `PN_ERR_RANGE` when `steps` is 0 or `yaw` is not finite.
+
+ # Safety
+ `m0`, `m1` writable `size_t`; `f` a writable float.
+ */
+int32_t pn_fiv_yaw_blend(size_t steps, float yaw, size_t *m0, size_t *m1, float *f);
+
+/*
  Opens a level and its dictionary over the caller's bytes (both kept alive until
  [`pn_mrt_free`]); refuses a level baked for another dictionary.
 

@@ -252,3 +252,26 @@ pub unsafe extern "C" fn pn_fiv_scene_self_shadowed(
         put3(out, v)
     })
 }
+
+/// The two tables to blend for an environment turned by `yaw` radians about the shells'
+/// polar axis, given tables baked at `steps` turns (`penumbra fiv --yaw-steps`; asset spec
+/// §15.2 step 9): indices into `m0`, `m1` and the weight of `m1` into `f` (shade with both,
+/// `(1 − f)·I(m0) + f·I(m1)`). `PN_ERR_RANGE` when `steps` is 0 or `yaw` is not finite.
+///
+/// # Safety
+/// `m0`, `m1` writable `size_t`; `f` a writable float.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn pn_fiv_yaw_blend(steps: usize, yaw: f32, m0: *mut usize, m1: *mut usize, f: *mut f32) -> i32 {
+    guard(|| {
+        let (Some(a), Some(b), Some(w)) = (crate::slice_mut(m0, 1), crate::slice_mut(m1, 1), crate::slice_mut(f, 1))
+        else {
+            return PN_ERR_NULL;
+        };
+        if steps == 0 || !yaw.is_finite() {
+            return PN_ERR_RANGE;
+        }
+        let (i, j, t) = penumbra_runtime::fiv::yaw_blend(steps, yaw);
+        (a[0], b[0], w[0]) = (i, j, t);
+        PN_OK
+    })
+}

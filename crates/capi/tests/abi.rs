@@ -333,6 +333,15 @@ fn fiv_abi_equals_the_runtime() {
         let (mut c, mut r) = ([0.0f32; 3], 0.0f32);
         assert_eq!(pn_fiv_table_ball(t, c.as_mut_ptr(), &mut r), PN_OK);
         assert_eq!((c, r), (table.center(), table.radius()));
+        // yaw blend: 2.25 of 8 steps → tables 2 and 3, weight 0.25; bad input refused
+        let (mut m0, mut m1, mut f) = (9usize, 9usize, -1.0f32);
+        let yaw = 2.25 * core::f32::consts::TAU / 8.0;
+        assert_eq!(pn_fiv_yaw_blend(8, yaw, &mut m0, &mut m1, &mut f), PN_OK);
+        assert_eq!((m0, m1), (2, 3));
+        assert!((f - 0.25).abs() < 1e-5);
+        assert_eq!(pn_fiv_yaw_blend(0, yaw, &mut m0, &mut m1, &mut f), PN_ERR_RANGE);
+        assert_eq!(pn_fiv_yaw_blend(8, f32::NAN, &mut m0, &mut m1, &mut f), PN_ERR_RANGE);
+        assert_eq!(pn_fiv_yaw_blend(8, yaw, ptr::null_mut(), &mut m1, &mut f), PN_ERR_NULL);
         let placed = [
             pn_fiv_placed { table: t, center: c },
             pn_fiv_placed { table: t, center: [c[0] + r, c[1], c[2] + 0.5 * r] },

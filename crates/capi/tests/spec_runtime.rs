@@ -1,5 +1,5 @@
 //! `schemas/asset-format.md` §15 is complete: a C++ program written from its text alone
-//! (`tests/cpp/spec_runtime.cpp`: the FIV lookup with the `(ρ_k/ρ)²` weighting, clamps,
+//! (`tests/cpp/spec_runtime.cpp`: the FIV lookup with the `(ρ̂_k/ρ̂)²` weighting and far-field fall-off, clamps,
 //! inside-corner renormalisation and overlap sum; the unoccluded irradiance lookup; the MRT
 //! one-bounce step with the same-face rule and interfaces) reproduces the runtime behind the C
 //! ABI to 1e-5 relative (relative to `max(|runtime|, 1e-3·max|runtime|)`), on 4000 random

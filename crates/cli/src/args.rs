@@ -259,6 +259,21 @@ pub struct FivArgs {
 pub enum FivCommand {
     /// Join the shards of one bake (`--shard K/N`, any order) into the bytes a single run writes.
     Merge(FivMergeArgs),
+    /// Export a table for the GPU: a KTX2 RGBA32F 3D texture (docs/fiv.md, "GPU export").
+    Export(FivExportArgs),
+}
+
+/// `penumbra fiv export`.
+#[derive(Debug, Args)]
+pub struct FivExportArgs {
+    /// The FIVT asset.
+    pub asset: PathBuf,
+    /// Output KTX2 file (written atomically; parent directories are created).
+    #[arg(long, value_name = "OUT.ktx2")]
+    pub ktx2: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `penumbra fiv` bake options.
@@ -268,8 +283,10 @@ pub struct FivBakeArgs {
     #[arg(long, required = true)]
     pub mesh: Option<String>,
     /// Environment map (lat-long .exr or .hdr, OpenEXR orientation) or `builtin:area-lights`.
+    /// Repeat (with one `-o` per `--env`, in order) to bake a table per environment from one
+    /// visibility pass; each output has the bytes of its single-environment bake.
     #[arg(long, required = true)]
-    pub env: Option<String>,
+    pub env: Vec<String>,
     /// Rotate the environment by 180° about an axis before baking (exact texel permutation);
     /// `z180` brings the upside-down grace_latlong.exr probe upright.
     #[arg(long, value_enum, default_value_t = EnvRotateArg::None)]
@@ -292,15 +309,21 @@ pub struct FivBakeArgs {
     /// Face size of the diffuse irradiance cube map.
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     pub irradiance_size: u32,
+    /// Bake every environment turned by m/N of a full turn about +Y (m = 0..N, `--up y`; the
+    /// map's width must be a multiple of N), one `-o` per environment and step (environment
+    /// major), all from one visibility pass; the runtime blends the two nearest turns
+    /// (`penumbra_runtime::fiv::yaw_blend`).
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=360))]
+    pub yaw_steps: u32,
     /// Store the FIVs as f16 (18 bytes per sample instead of 36).
     #[arg(long)]
     pub half: bool,
     /// Bake only the azimuth slab K of N (0-based); `penumbra fiv merge` joins the slabs.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
-    /// Output asset (.fivt). Parent directories are created.
+    /// Output asset (.fivt), one per `--env`. Parent directories are created.
     #[arg(short = 'o', long, required = true)]
-    pub output: Option<PathBuf>,
+    pub output: Vec<PathBuf>,
     /// Print one JSON object with the results on stdout.
     #[arg(long)]
     pub json: bool,
@@ -400,9 +423,21 @@ pub struct VerifyFivArgs {
     /// Write runtime | reference | difference as a PNG.
     #[arg(long, value_name = "OUT.png")]
     pub image: Option<PathBuf>,
-    /// Exit with code 1 when nrmse_visible exceeds this.
+    /// Exit with code 1 when nrmse (all receivers) exceeds this.
     #[arg(long, value_name = "X")]
     pub max_nrmse: Option<f64>,
+    /// Exit with code 1 when nrmse_visible exceeds this.
+    #[arg(long, value_name = "X")]
+    pub max_nrmse_visible: Option<f64>,
+    /// Plane receivers: put the plane D·R below the occluders' lowest point (the occluders
+    /// raised D radii; 0 to 1000) and widen the square to ±(3 + D)R.
+    #[arg(long, value_name = "D")]
+    pub distance: Option<f64>,
+    /// Cast the reference against the stored environment cube supersampled to this face size
+    /// (a multiple of the bake's cube size; each texel split into equal sub-texels), so the
+    /// error of treating each texel as one direction is measured too.
+    #[arg(long, value_name = "N")]
+    pub reference_cube_size: Option<usize>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,

@@ -19,7 +19,8 @@
 //!
 //! # Inside flags
 //! A sample on or inside the ball (`ρ ≤ R`) is flagged inside when the generalized winding
-//! number of the mesh is ≥ ½ there (robust for open meshes such as the scanned bunny). The
+//! number `w` of the mesh has `|w| ≥ ½` there (robust for open meshes such as the scanned
+//! bunny, and for either orientation of the triangles). The
 //! runtime drops flagged samples from its interpolation (FIV §4.3.2), so their FIV is not
 //! computed: it is stored as 0 and no ray is cast.
 //!
@@ -116,9 +117,11 @@ impl Occluder {
         self.frame
     }
 
-    /// Whether `p` is inside the mesh (generalized winding number ≥ ½).
+    /// Whether `p` is inside the mesh: `|w| ≥ ½` for the generalized winding number `w`, so
+    /// an inside-out mesh (consistently reversed triangles, `w ≈ −1` inside) is flagged the
+    /// same as the one authored outward.
     pub fn is_inside(&self, p: [f64; 3]) -> bool {
-        self.winding.is_inside(p)
+        self.winding.winding_number(p).abs() >= 0.5
     }
 }
 
@@ -209,11 +212,28 @@ impl<'a> FivTracer<'a> {
 
     /// [`FivTracer::fiv`] with a caller-held traversal stack (no allocation).
     pub fn fiv_with(&self, p: [f64; 3], stack: &mut TraversalStack) -> ([[f64; 3]; 3], BakeStats) {
+        let mut acc = [[[0.0f64; 3]; 3]];
+        let st = self.fiv_multi(p, stack, &[self.lighting], &mut acc);
+        (acc[0], st)
+    }
+
+    /// The occluded FIVs seen from `p` under several environments at once, from one
+    /// visibility pass: `out[e]` accumulates `Σ_t L^e_t ω_t dΩ_t` over the texels occluded
+    /// from `p`, in the same texel order as a bake under `envs[e]` alone (so the same bits).
+    /// Every environment must have the tracer's cube size (directions and solid angles are
+    /// the tracer's; only the radiance differs).
+    pub fn fiv_multi(
+        &self,
+        p: [f64; 3],
+        stack: &mut TraversalStack,
+        envs: &[&Lighting],
+        out: &mut [[[f64; 3]; 3]],
+    ) -> BakeStats {
+        debug_assert_eq!(envs.len(), out.len());
         let (occ, lighting) = (self.occ, self.lighting);
         let f = occ.frame;
         let to_c = [f.center[0] - p[0], f.center[1] - p[1], f.center[2] - p[2]];
         let rho = dot(to_c, to_c).sqrt();
-        let mut acc = [[0.0f64; 3]; 3];
         let (mut rays, mut hits, mut certified) = (0u64, 0u64, 0u64);
         let outside = rho >= f.radius;
         // A ray heading away from the centre's side (d·(c − p) ≤ 0) stays within
@@ -246,10 +266,12 @@ impl<'a> FivTracer<'a> {
             };
             if hit {
                 hits += 1;
-                let w = lighting.weight(t);
-                for c in 0..3 {
-                    for x in 0..3 {
-                        acc[c][x] += w[c] * d[x];
+                for (acc, env) in out.iter_mut().zip(envs) {
+                    let w = env.weight(t);
+                    for c in 0..3 {
+                        for x in 0..3 {
+                            acc[c][x] += w[c] * d[x];
+                        }
                     }
                 }
             }
@@ -276,7 +298,7 @@ impl<'a> FivTracer<'a> {
                 }
             }
         }
-        (acc, BakeStats { rays_traced: rays, rays_hit: hits, rays_certified: certified, inside_samples: 0 })
+        BakeStats { rays_traced: rays, rays_hit: hits, rays_certified: certified, inside_samples: 0 }
     }
 }
 
@@ -314,6 +336,33 @@ pub fn bake_with(
     progress: &dyn Progress,
     culling: Culling,
 ) -> Result<FivBake, FivError> {
+    let mut v = bake_multi(occ, &[lighting], params, shard, progress, culling)?;
+    Ok(v.remove(0))
+}
+
+/// Bakes one table per environment from a single visibility pass (visibility does not
+/// depend on the environment; each extra environment costs 9 multiply-adds per occluded
+/// texel). Table `e` has exactly the bytes [`bake_with`] gives under `envs[e]` alone. All
+/// environments must share one cube size.
+pub fn bake_multi(
+    occ: &Occluder,
+    envs: &[&Lighting],
+    params: &FivParams,
+    shard: Shard,
+    progress: &dyn Progress,
+    culling: Culling,
+) -> Result<Vec<FivBake>, FivError> {
+    let Some(&lighting) = envs.first() else {
+        return Err(FivError::Parameter("no environment to bake".into()));
+    };
+    if let Some(e) = envs.iter().find(|e| e.cube().size() != lighting.cube().size()) {
+        return Err(FivError::Parameter(format!(
+            "environments of one bake need one cube size ({} and {})",
+            lighting.cube().size(),
+            e.cube().size()
+        )));
+    }
+    let n_env = envs.len();
     params.validate()?;
     let l = params.layout;
     shard.validate(l.azimuth).map_err(FivError::Shard)?;
@@ -321,7 +370,8 @@ pub fn bake_with(
     let rows = range.len() * l.polar;
     let k = l.radial;
     let frame = occ.frame;
-    let mut fiv = vec![0.0f32; rows * k * 9];
+    // [row][env][k][9]: one row's tables for every environment side by side
+    let mut fiv = vec![0.0f32; rows * n_env * k * 9];
     let mut inside = vec![0u8; rows * k];
     let cull = match culling {
         Culling::Auto => worth_culling(occ, lighting, &l, l.azimuth * l.polar),
@@ -332,11 +382,12 @@ pub fn bake_with(
     let done = AtomicU64::new(0);
     let (rays, hits, cert, ins) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
     progress.update("fiv", 0, rows as u64);
-    fiv.par_chunks_mut(k * 9).zip(inside.par_chunks_mut(k)).enumerate().for_each(|(row, (out, flags))| {
+    fiv.par_chunks_mut(n_env * k * 9).zip(inside.par_chunks_mut(k)).enumerate().for_each(|(row, (out, flags))| {
         let i = range.start + row / l.polar;
         let j = row % l.polar;
         let (mut r, mut h, mut ce, mut n_in) = (0u64, 0u64, 0u64, 0u64);
         let mut stack = occ.bvh.traversal_stack();
+        let mut acc = vec![[[0.0f64; 3]; 3]; n_env];
         for kk in 0..k {
             let p = l.position(&frame, i, j, kk);
             if l.rho_over_r(kk) <= 1.0 + 1e-9 && occ.is_inside(p) {
@@ -344,13 +395,16 @@ pub fn bake_with(
                 n_in += 1;
                 continue;
             }
-            let (v, st) = tracer.fiv_with(p, &mut stack);
+            acc.fill([[0.0; 3]; 3]);
+            let st = tracer.fiv_multi(p, &mut stack, envs, &mut acc);
             r += st.rays_traced;
             h += st.rays_hit;
             ce += st.rays_certified;
-            for c in 0..3 {
-                for x in 0..3 {
-                    out[kk * 9 + c * 3 + x] = v[c][x] as f32;
+            for (e, v) in acc.iter().enumerate() {
+                for c in 0..3 {
+                    for x in 0..3 {
+                        out[(e * k + kk) * 9 + c * 3 + x] = v[c][x] as f32;
+                    }
                 }
             }
         }
@@ -361,22 +415,34 @@ pub fn bake_with(
         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress.update("fiv", d, rows as u64);
     });
-    let irr = lighting.irradiance_cube(params.irradiance_size);
-    let env = lighting.env_fiv();
-    Ok(FivBake {
-        params: *params,
-        frame,
-        cube_size: lighting.cube().size(),
-        shard,
-        fiv,
-        inside,
-        irradiance: irr.iter().flat_map(|v| v.map(|x| x as f32)).collect(),
-        env_fiv: env.map(|r| r.map(|x| x as f32)),
-        stats: BakeStats {
-            rays_traced: rays.into_inner(),
-            rays_hit: hits.into_inner(),
-            rays_certified: cert.into_inner(),
-            inside_samples: ins.into_inner(),
-        },
-    })
+    let stats = BakeStats {
+        rays_traced: rays.into_inner(),
+        rays_hit: hits.into_inner(),
+        rays_certified: cert.into_inner(),
+        inside_samples: ins.into_inner(),
+    };
+    Ok(envs
+        .iter()
+        .enumerate()
+        .map(|(e, env)| {
+            let irr = env.irradiance_cube(params.irradiance_size);
+            let ef = env.env_fiv();
+            let mut table = Vec::with_capacity(rows * k * 9);
+            for row in 0..rows {
+                let base = (row * n_env + e) * k * 9;
+                table.extend_from_slice(&fiv[base..base + k * 9]);
+            }
+            FivBake {
+                params: *params,
+                frame,
+                cube_size: env.cube().size(),
+                shard,
+                fiv: table,
+                inside: inside.clone(),
+                irradiance: irr.iter().flat_map(|v| v.map(|x| x as f32)).collect(),
+                env_fiv: ef.map(|r| r.map(|x| x as f32)),
+                stats,
+            }
+        })
+        .collect())
 }

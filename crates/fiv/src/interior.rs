@@ -18,7 +18,8 @@
 //! The balls come from a grid of candidate centres: a centre is kept when the generalized
 //! winding number of `M'` is within 0.1 of a non-zero integer, with radius = its exact
 //! distance to `M` (closest point) and to the caps' bounding balls, shrunk by 1e-6
-//! relative. If the mesh cannot be closed this way (an edge used twice in the same
+//! relative. The centres kept are then re-checked with the exact winding number (the sum of
+//! every triangle's solid angle), since the fast one has no error bound. If the mesh cannot be closed this way (an edge used twice in the same
 //! direction, or more than once unmatched), there are no balls and nothing is certified.
 
 use crate::bake::Occluder;
@@ -174,6 +175,17 @@ pub(crate) fn interior(occ: &Occluder) -> Interior {
             kept.push((c, r));
         }
     }
+    // the fast winding number has no error bound: re-check every kept centre with the exact
+    // sum of solid angles (a few hundred O(n) evaluations) and drop any that is not within
+    // 1e-3 of a non-zero integer
+    let kept: Vec<([f64; 3], f64)> = kept
+        .into_par_iter()
+        .filter(|(c, _)| {
+            let w = winding.exact(*c);
+            let near = w.round();
+            near != 0.0 && (w - near).abs() <= 1e-3
+        })
+        .collect();
     Interior { inner: kept, caps: cap_balls }
 }
 

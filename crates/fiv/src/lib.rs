@@ -14,7 +14,9 @@
 //!   around the occluder's minimum enclosing ball, with inside flags ([`layout`], [`bake()`]);
 //! - the `FIVT` asset, in whole or in azimuth slabs (`--shard`), and the merge of slabs into
 //!   the bytes a single run writes ([`asset`]);
-//! - the brute-force references ([`reference`]).
+//! - the brute-force references ([`reference`]);
+//! - the GPU export: a KTX2 3D texture that trilinear filtering turns into the runtime's
+//!   lookup ([`ktx2`]).
 //!
 //! The runtime side (trilinear lookup, partial occluders, overlap correction,
 //! self-shadowing; FIV §4.3) is `penumbra_runtime::fiv`.
@@ -32,13 +34,14 @@ pub mod asset;
 pub mod bake;
 mod error;
 mod interior;
+pub mod ktx2;
 pub mod layout;
 pub mod lighting;
 pub mod reference;
 pub mod silhouette;
 
 pub use asset::{FIVT_KIND_VERSION, FIVT_SECTIONS, FivMeta, Storage, merge, to_asset};
-pub use bake::{BakeStats, Culling, FivBake, FivParams, FivTracer, Occluder, bake, bake_with};
+pub use bake::{BakeStats, Culling, FivBake, FivParams, FivTracer, Occluder, bake, bake_multi, bake_with};
 pub use error::FivError;
 pub use layout::{Frame, Shard, ShellLayout, UpAxis};
 pub use lighting::Lighting;

@@ -143,6 +143,23 @@ fn sphere_cap_fiv_matches_the_analytic_integral() {
     }
 }
 
+/// An inside-out sphere (every triangle reversed: winding number −1 inside) is flagged the
+/// same as the outward one.
+#[test]
+fn inside_flags_do_not_depend_on_the_winding() {
+    let mut mesh = uv_sphere([0.5, 0.0, 0.0], 1.0, 32, 64);
+    let light = env(4);
+    let p = params(4, 3, 7, 0.0, 1.5);
+    let outward = bake(&Occluder::new(mesh.clone()).unwrap(), &light, &p, Shard::WHOLE, &NoProgress).unwrap();
+    for t in &mut mesh.indices {
+        t.swap(1, 2);
+    }
+    let inverted = bake(&Occluder::new(mesh).unwrap(), &light, &p, Shard::WHOLE, &NoProgress).unwrap();
+    assert_eq!(outward.stats.inside_samples, 4 * 3 * 4);
+    assert_eq!(inverted.inside, outward.inside);
+    assert_eq!(inverted.fiv, outward.fiv);
+}
+
 #[test]
 fn inside_flags_of_a_sphere() {
     let mesh = uv_sphere([0.5, 0.0, 0.0], 1.0, 32, 64);
@@ -251,4 +268,32 @@ fn half_storage_rounds_each_value_and_rejects_overflow() {
         mesh: &mesh,
     };
     assert!(matches!(to_asset(&b, &inp), Err(FivError::HalfOverflow { .. })));
+}
+
+/// Several environments from one visibility pass: each table has exactly the bytes of a bake
+/// under that environment alone, with the ray counters of one bake.
+#[test]
+fn many_environments_one_visibility_pass_give_the_single_bakes_bytes() {
+    let occ = Occluder::new(torus([0.1, 0.0, 0.0], 1.0, 0.3, 24, 12)).unwrap();
+    let a = env(8);
+    let probe = CubeMap::constant(8, [0.0; 3]);
+    let texels = probe.iter().map(|(_, d, _, _)| [(2.0 - d[0]) as f32, 0.3, (1.0 + d[2] * d[1]) as f32]).collect();
+    let b = Lighting::new(CubeMap::from_texels(8, texels).unwrap());
+    let p = params(8, 5, 4, 0.5, 3.0);
+    for culling in [Culling::Never, Culling::Always] {
+        let multi = bake_multi(&occ, &[&a, &b], &p, Shard::WHOLE, &NoProgress, culling).unwrap();
+        let one_a = bake_with(&occ, &a, &p, Shard::WHOLE, &NoProgress, culling).unwrap();
+        let one_b = bake_with(&occ, &b, &p, Shard::WHOLE, &NoProgress, culling).unwrap();
+        assert_eq!(multi.len(), 2);
+        for (m, o) in multi.iter().zip([&one_a, &one_b]) {
+            assert_eq!(m.fiv, o.fiv);
+            assert_eq!(m.inside, o.inside);
+            assert_eq!(m.irradiance, o.irradiance);
+            assert_eq!(m.env_fiv, o.env_fiv);
+            assert_eq!(m.stats, o.stats);
+        }
+        assert_ne!(multi[0].fiv, multi[1].fiv);
+    }
+    // environments of different cube sizes cannot share directions
+    assert!(bake_multi(&occ, &[&a, &env(4)], &p, Shard::WHOLE, &NoProgress, Culling::Auto).is_err());
 }

@@ -7,7 +7,8 @@
 //! - **Occluded irradiance** of one occluder centred at `c` (the centre of its minimum
 //!   enclosing ball, radius `R`): `I_occ = N · FIV(p − c)` (FIV eq. 10), with `FIV(·)` the
 //!   trilinear interpolation of the 8 samples around `p − c` in `(θ, φ, ρ)` (FIV §4.3.1):
-//!   θ wraps, φ and ρ clamp (receivers nearer than the innermost shell use it), samples
+//!   θ wraps, φ and ρ clamp (receivers nearer than the innermost shell use it; beyond the
+//!   outermost shell its FIV falls off as `(ρ_{K−1}/ρ)²`), samples
 //!   flagged inside the occluder are dropped and the remaining weights renormalised
 //!   (FIV §4.3.2); the interpolated quantity is `ρ²·FIV` (see [`FivTable::occluded_fiv`]). With `d = (c − p)·N` the height of the centre above the receiver's plane,
 //!   an occluder with `d ≤ −R` is behind the receiver and ignored (case C); otherwise
@@ -38,6 +39,9 @@ pub const FIVT_KNOWN: &[&str] =
     &["fiv", "inside", "irradiance", "env_fiv", "frame", "radii", "env_cube", "ref_vertices", "ref_triangles"];
 
 const TAU: f32 = core::f32::consts::TAU;
+/// Smallest height of an occluder's centre above the receiver's plane, in units of its R,
+/// used for its unit bounding disc (eq. 13–14): keeps the disc radius finite as h → 0⁺.
+pub const MIN_DISC_HEIGHT: f32 = 1e-3;
 const PI: f32 = core::f32::consts::PI;
 
 #[inline]
@@ -168,6 +172,29 @@ impl<'a> FivTable<'a> {
         self.radius
     }
 
+    /// Innermost and outermost shell radii in units of R: `(r_min, r_max)`.
+    pub fn shell_range(&self) -> (f32, f32) {
+        (self.r_min, self.r_max)
+    }
+
+    /// The smallest positive shell radius δ in units of R: `r_min`, or the second shell's
+    /// `r_min + (r_max − r_min)/(K−1)` when `r_min = 0`. The radial weighting of
+    /// [`Self::occluded_fiv`] uses `max(ρ_k/R, δ)` and `max(ρ/R, δ)`.
+    pub fn scale_floor(&self) -> f32 {
+        if self.r_min > 0.0 {
+            self.r_min
+        } else {
+            self.r_min + (self.r_max - self.r_min) * 1.0 / (self.dims[2] - 1) as f32
+        }
+    }
+
+    /// Whether the table has shells inside the bounding ball (`r_min < 1`). Without them,
+    /// self-shadowing ([`FivShader::self_shadowed`]) and receivers next to the occluder only
+    /// get the innermost shell's FIV, whatever their distance.
+    pub fn has_inner_samples(&self) -> bool {
+        self.r_min < 1.0
+    }
+
     /// The environment's FIV `[rgb][xyz]`.
     pub fn env_fiv(&self) -> [[f32; 3]; 3] {
         self.env_fiv
@@ -185,6 +212,12 @@ impl<'a> FivTable<'a> {
     /// centre: `u = θA/2π ∈ [0, A)`, `v = φ(P−1)/π`, `w = (ρ/R − r_min)(K−1)/(r_max − r_min)`
     /// (unclamped).
     pub fn grid_coords(&self, rel: [f32; 3]) -> [f32; 3] {
+        self.coords(rel).0
+    }
+
+    /// [`Self::grid_coords`] and `ρ/R`.
+    #[inline]
+    fn coords(&self, rel: [f32; 3]) -> ([f32; 3], f32) {
         let [a, p, k] = self.dims;
         let x1 = dot(rel, self.basis[0]);
         let x2 = dot(rel, self.basis[1]);
@@ -199,22 +232,26 @@ impl<'a> FivTable<'a> {
         } else {
             (0.0, 0.0)
         };
-        let w = (rho / self.radius - self.r_min) / (self.r_max - self.r_min) * (k - 1) as f32;
-        [theta / TAU * a as f32, phi / PI * (p - 1) as f32, w]
+        let rho_r = rho / self.radius;
+        let w = (rho_r - self.r_min) / (self.r_max - self.r_min) * (k - 1) as f32;
+        ([theta / TAU * a as f32, phi / PI * (p - 1) as f32, w], rho_r)
     }
 
     /// The occluded-environment FIV `[rgb][xyz]` for a receiver at `rel` = receiver − occluder
     /// centre: trilinear over the 8 surrounding samples (θ wraps, φ and ρ clamp), dropping
     /// samples flagged inside and renormalising the rest. `None` when all 8 are inside.
     ///
-    /// The trilinear weights apply to `(ρ_k/ρ)²·FIV_k` rather than to `FIV_k` (exact at the
+    /// The trilinear weights apply to `(ρ̂_k/ρ̂)²·FIV_k` rather than to `FIV_k`, with
+    /// `ρ̂_k = max(ρ_k/R, δ)` and `ρ̂ = max(ρ/R, δ)`, δ = [`Self::scale_floor`] (exact at the
     /// samples; between shells it follows the `(R/ρ)²` fall-off of the occluder's solid angle
-    /// instead of overestimating it; ρ is the clamped radius, so receivers nearer than the
-    /// innermost shell get that shell's FIV). Measured in docs/fiv.md: lower NRMSE in every
-    /// case tried.
+    /// instead of overestimating it; with `r_min = 0` the first cell, whose inner shell is the
+    /// centre itself, is plain trilinear). Receivers nearer than the innermost shell get that
+    /// shell's FIV; receivers beyond the outermost shell get its FIV times `(ρ_{K−1}/ρ)²`
+    /// with their true ρ, the far-field limit (the occluder's solid angle ∝ 1/ρ², its
+    /// direction fixed). Measured in docs/fiv.md: lower NRMSE in every case tried.
     pub fn occluded_fiv(&self, rel: [f32; 3]) -> Option<[[f32; 3]; 3]> {
         let [a, p, k] = self.dims;
-        let [u, v, w] = self.grid_coords(rel);
+        let ([u, v, w], rho_r) = self.coords(rel);
         let uf = u.floor();
         let fu = (u - uf).clamp(0.0, 1.0);
         let i0 = (uf as i64).rem_euclid(a as i64) as usize;
@@ -225,9 +262,13 @@ impl<'a> FivTable<'a> {
         let w = if w.is_finite() { w.clamp(0.0, (k - 1) as f32) } else { 0.0 };
         let k0 = (w.floor() as usize).min(k - 2);
         let fw = (w - k0 as f32).clamp(0.0, 1.0);
-        // ρ/R of a shell, and of the (clamped) receiver
+        // ρ/R of a shell, and of the receiver: clamped up to the smallest positive shell
+        // radius δ (nearer receivers get the innermost shell; with r_min = 0 the first cell is
+        // plain trilinear instead of dividing by ρ² → 0), not down to r_max (farther ones
+        // continue the outermost shell's fall-off with their true ρ)
         let shell = |kk: usize| self.r_min + (self.r_max - self.r_min) * kk as f32 / (k - 1) as f32;
-        let rho = (self.r_min + (self.r_max - self.r_min) * w / (k - 1) as f32).max(f32::MIN_POSITIVE);
+        let floor = self.scale_floor();
+        let rho = rho_r.max(floor);
         let mut acc = [[0.0f32; 3]; 3];
         let mut wsum = 0.0f32;
         let mut valid = 0u32;
@@ -240,7 +281,7 @@ impl<'a> FivTable<'a> {
                     }
                     // interpolate ρ²·FIV: the occluded solid angle falls off like (R/ρ)², which
                     // linear interpolation of the FIV itself overestimates between shells
-                    let sc = (shell(kk) / rho).powi(2);
+                    let sc = (shell(kk).max(floor) / rho).powi(2);
                     let s = self.sample(ii, jj, kk).map(|r| r.map(|x| x * sc));
                     let wt = wu * wv * ww;
                     for c in 0..3 {
@@ -339,6 +380,22 @@ fn face_of(d: [f32; 3]) -> (usize, f32, f32) {
         return (0, 0.5, 0.5);
     }
     (f, (0.5 * (sc / ma + 1.0)).clamp(0.0, 1.0), (0.5 * (tc / ma + 1.0)).clamp(0.0, 1.0))
+}
+
+/// The two tables and the blend weight for an environment turned by `yaw` radians about the
+/// shells' polar axis (from +Z toward +X for `--up y`), given tables baked at the `steps`
+/// turns `2πm/steps` (`penumbra fiv --yaw-steps`): `(m₀, m₁, f)` with
+/// `t = yaw·steps/2π`, `m₀ = ⌊t⌋ mod steps`, `m₁ = (m₀ + 1) mod steps`, `f = t − ⌊t⌋`; shade
+/// with both and take `(1 − f)·I(m₀) + f·I(m₁)`. `steps = 0` or a non-finite yaw give
+/// `(0, 0, 0)`.
+pub fn yaw_blend(steps: usize, yaw: f32) -> (usize, usize, f32) {
+    if steps == 0 || !yaw.is_finite() {
+        return (0, 0, 0.0);
+    }
+    let t = yaw / TAU * steps as f32;
+    let tf = t.floor();
+    let m0 = (tf as i64).rem_euclid(steps as i64) as usize;
+    (m0, (m0 + 1) % steps, (t - tf).clamp(0.0, 1.0))
 }
 
 /// Handling of occluders that straddle the receiver's plane (FIV §4.3.1, "Partial
@@ -461,7 +518,15 @@ impl FivShader {
             let occ = o.occluded_irradiance(p, n, opts.partial);
             let v = sub(o.center, p);
             let h = dot(v, n);
-            let disc = (h > 0.0).then(|| ([dot(v, t1) / h, dot(v, t2) / h], o.table.radius() / h));
+            // as h → 0⁺ the disc radius R/h overflows f32 (then ∞ − ∞ = NaN in the lens area):
+            // heights below R/1000 are taken as R/1000 (disc radius ≤ 1000). The share
+            // lens/(A_i + A_j) is invariant under a common scale of both discs, so when both
+            // heights are below the floor the clamp gives the share of equal heights
+            let r = o.table.radius();
+            let disc = (h > 0.0).then(|| {
+                let h = h.max(MIN_DISC_HEIGHT * r);
+                ([dot(v, t1) / h, dot(v, t2) / h], r / h)
+            });
             self.terms.push(Term { occ, disc });
         }
         let mut sum = [0.0f32; 3];

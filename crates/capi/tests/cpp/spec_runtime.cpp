@@ -112,7 +112,8 @@ bool occluded_fiv(const Fiv &t, const V3 &q, float out[3][3]) {
     }
     float u = theta / TAU * static_cast<float>(t.A);
     float v = std::clamp(phi / PI * static_cast<float>(t.P - 1), 0.0f, static_cast<float>(t.P - 1));
-    float w = (rho / t.R - t.rmin) / (t.rmax - t.rmin) * static_cast<float>(t.K - 1);
+    float rt = rho / t.R;
+    float w = (rt - t.rmin) / (t.rmax - t.rmin) * static_cast<float>(t.K - 1);
     w = std::isfinite(w) ? std::clamp(w, 0.0f, static_cast<float>(t.K - 1)) : 0.0f;
     long long ui = static_cast<long long>(std::floor(u));
     size_t i0 = static_cast<size_t>(((ui % static_cast<long long>(t.A)) + static_cast<long long>(t.A)) % static_cast<long long>(t.A));
@@ -122,7 +123,8 @@ bool occluded_fiv(const Fiv &t, const V3 &q, float out[3][3]) {
     float fv = std::clamp(v - static_cast<float>(j0), 0.0f, 1.0f);
     size_t k0 = std::min(static_cast<size_t>(std::floor(w)), t.K - 2);
     float fw = std::clamp(w - static_cast<float>(k0), 0.0f, 1.0f);
-    float s = std::max(t.rmin + (t.rmax - t.rmin) * w / static_cast<float>(t.K - 1), 1.17549435e-38f);
+    float delta = t.rmin > 0 ? t.rmin : t.rmin + (t.rmax - t.rmin) * 1.0f / static_cast<float>(t.K - 1);
+    float s = std::fmax(rt, delta);
     float acc[3][3] = {}, plain[3][3] = {}, wsum = 0;
     int valid = 0;
     for (int a = 0; a < 2; a++)
@@ -131,6 +133,7 @@ bool occluded_fiv(const Fiv &t, const V3 &q, float out[3][3]) {
                 size_t i = a ? i1 : i0, j = j0 + static_cast<size_t>(b), k = k0 + static_cast<size_t>(c);
                 if (t.inside[(i * t.P + j) * t.K + k]) continue;
                 float sk = t.rmin + (t.rmax - t.rmin) * static_cast<float>(k) / static_cast<float>(t.K - 1);
+                sk = std::max(sk, delta);
                 float sc = (sk / s) * (sk / s);
                 float wt = (a ? fu : 1 - fu) * (b ? fv : 1 - fv) * (c ? fw : 1 - fw);
                 const float *x = t.fiv + ((i * t.P + j) * t.K + k) * 9;
@@ -232,6 +235,7 @@ V3 combined(const Fiv &t, const V3 c[2], const V3 &p, const V3 &n) {
         V3 v = sub(c[o], p);
         float h = dot(v, n);
         has[o] = h > 0;
+        h = std::max(h, 1e-3f * t.R);
         if (has[o]) dc[o][0] = dot(v, t1) / h, dc[o][1] = dot(v, t2) / h, dr[o] = t.R / h;
         for (int ch = 0; ch < 3; ch++) S[ch] += O[o][ch], M[ch] = std::max(M[ch], O[o][ch]);
     }

@@ -1,6 +1,6 @@
 //! `penumbra fiv`: the FIV occlusion bake (FIV §4.2), and `penumbra fiv merge` for shards.
 
-use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivMergeArgs, UpArg};
+use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivExportArgs, FivMergeArgs, UpArg};
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::{ensure_parent, hash_file};
@@ -29,6 +29,60 @@ pub struct Input<T> {
     pub name: String,
     /// blake3 of the file bytes, or of the builtin's name and the tool version.
     pub blake3: String,
+    /// What the import did (`{}` for builtins), for `--json` and the text report.
+    pub report: Value,
+    /// The import's notes, one sentence each (shown as warnings).
+    pub warnings: Vec<String>,
+}
+
+/// The import report of an occluder mesh as JSON, and its warnings.
+fn mesh_report(
+    scene: &penumbra_geometry::Scene,
+    r: &penumbra_geometry::import::ImportReport,
+    spec: &str,
+) -> (Value, Vec<String>) {
+    let mut warnings: Vec<String> = r.warnings.iter().map(|w| format!("{spec}: {w}")).collect();
+    if r.dropped_triangles() > 0 {
+        warnings.push(format!(
+            "{spec}: {} of {} triangles dropped (repeated index {}, zero area {}, duplicate {})",
+            r.dropped_triangles(),
+            r.source_triangles,
+            r.clean.dropped_repeated_index,
+            r.clean.dropped_zero_area,
+            r.clean.dropped_duplicate
+        ));
+    }
+    if !scene.skins.is_empty() {
+        warnings.push(format!("{spec}: {} skin(s) taken at the rest pose (the occluder is rigid)", scene.skins.len()));
+    }
+    let v = json!({
+        "source_triangles": r.source_triangles,
+        "dropped_triangles": r.dropped_triangles(),
+        "dropped_repeated_index": r.clean.dropped_repeated_index,
+        "dropped_zero_area": r.clean.dropped_zero_area,
+        "dropped_duplicate": r.clean.dropped_duplicate,
+        "skipped_elements": r.skipped_elements,
+        "converted_strips_fans": r.converted_strips_fans,
+        "skins_at_rest_pose": scene.skins.len(),
+        "warnings": r.warnings,
+    });
+    (v, warnings)
+}
+
+/// The load report of an environment map as JSON, and its warnings.
+fn env_report(r: &penumbra_geometry::env::EnvReport, spec: &str) -> (Value, Vec<String>) {
+    let mut warnings: Vec<String> = r.warnings.iter().map(|w| format!("{spec}: {w}")).collect();
+    if r.negative_texels_clamped > 0 {
+        warnings.push(format!("{spec}: {} negative channel values clamped to 0", r.negative_texels_clamped));
+    }
+    let v = json!({
+        "width": r.width,
+        "height": r.height,
+        "negative_texels_clamped": r.negative_texels_clamped,
+        "not_2_to_1": r.width != 2 * r.height,
+        "warnings": r.warnings,
+    });
+    (v, warnings)
 }
 
 fn builtin_hash(name: &str) -> String {
@@ -50,13 +104,20 @@ pub fn load_occluder(spec: &str) -> Result<Input<TriMesh>, CliError> {
                 )));
             }
         };
-        return Ok(Input { data: mesh, name: spec.to_string(), blake3: builtin_hash(spec) });
+        return Ok(Input {
+            data: mesh,
+            name: spec.to_string(),
+            blake3: builtin_hash(spec),
+            report: json!({}),
+            warnings: Vec::new(),
+        });
     }
     let path = Path::new(spec);
-    let (scene, _report) =
+    let (scene, report) =
         penumbra_geometry::load_mesh(path).with_context(|| format!("cannot load occluder mesh {}", path.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    Ok(Input { data: scene.mesh, name, blake3: hash_file(path)? })
+    let (report, warnings) = mesh_report(&scene, &report, &name);
+    Ok(Input { data: scene.mesh, name, blake3: hash_file(path)?, report, warnings })
 }
 
 fn rotate(env: EnvMap, r: Rotation, spec: &str) -> Result<EnvMap, CliError> {
@@ -65,9 +126,38 @@ fn rotate(env: EnvMap, r: Rotation, spec: &str) -> Result<EnvMap, CliError> {
     })
 }
 
+/// The lat-long map turned by `step/steps` of a full turn about +Y (from +Z toward +X, the
+/// shell azimuth θ of `--up y`): `L'(ω) = L(R⁻¹ω)` is the column shift
+/// `L'[x] = L[(x + step·W/steps) mod W]` (OpenEXR LatLong: `λ = π − 2π(x + ½)/W`), exact.
+fn yawed(env: EnvMap, step: usize, steps: usize, spec: &str) -> Result<EnvMap, CliError> {
+    if step == 0 {
+        return Ok(env);
+    }
+    let (w, h) = (env.width(), env.height());
+    if w % steps != 0 {
+        return Err(CliError::input(anyhow!(
+            "--yaw-steps {steps}: {spec} is {w} texels wide, not a multiple of {steps}, so its turns are not texel shifts"
+        )));
+    }
+    let shift = step * w / steps;
+    let src = env.texels();
+    let data = (0..h).flat_map(|y| (0..w).map(move |x| src[y * w + (x + shift) % w])).collect();
+    EnvMap::new(w, h, data).map_err(|e| CliError::input(anyhow!("{spec}: {e}")))
+}
+
 /// Loads an environment (lat-long file or `builtin:`), rotates it and resamples it to a
 /// cube map.
 pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Input<CubeMap>, CliError> {
+    load_env_yawed(spec, rotation, (0, 1), cube_size)
+}
+
+/// [`load_env`], then turned by `yaw.0/yaw.1` of a full turn about +Y ([`yawed`]).
+pub fn load_env_yawed(
+    spec: &str,
+    rotation: Rotation,
+    yaw: (usize, usize),
+    cube_size: usize,
+) -> Result<Input<CubeMap>, CliError> {
     if let Some(name) = spec.strip_prefix("builtin:") {
         let env = match name {
             "area-lights" => penumbra_geometry::env::procedural::area_lights(512, 256),
@@ -78,15 +168,22 @@ pub fn load_env(spec: &str, rotation: Rotation, cube_size: usize) -> Result<Inpu
                 )));
             }
         };
-        let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
-        return Ok(Input { data: cube, name: spec.to_string(), blake3: builtin_hash(spec) });
+        let cube = CubeMap::from_latlong(&yawed(rotate(env, rotation, spec)?, yaw.0, yaw.1, spec)?, cube_size);
+        return Ok(Input {
+            data: cube,
+            name: spec.to_string(),
+            blake3: builtin_hash(spec),
+            report: json!({}),
+            warnings: Vec::new(),
+        });
     }
     let path = Path::new(spec);
-    let (env, _report) = penumbra_geometry::load_env_map(path)
+    let (env, report) = penumbra_geometry::load_env_map(path)
         .with_context(|| format!("cannot load environment map {}", path.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let cube = CubeMap::from_latlong(&rotate(env, rotation, spec)?, cube_size);
-    Ok(Input { data: cube, name, blake3: hash_file(path)? })
+    let (report, warnings) = env_report(&report, &name);
+    let cube = CubeMap::from_latlong(&yawed(rotate(env, rotation, spec)?, yaw.0, yaw.1, spec)?, cube_size);
+    Ok(Input { data: cube, name, blake3: hash_file(path)?, report, warnings })
 }
 
 /// Parses `AxPxK`.
@@ -118,6 +215,8 @@ pub struct FivJob {
     pub cube_size: usize,
     /// `fiv` storage.
     pub storage: Storage,
+    /// The environment turned by `yaw.0/yaw.1` of a full turn about +Y (`(0, 1)`: as is).
+    pub yaw: (usize, usize),
 }
 
 impl FivJob {
@@ -147,6 +246,7 @@ impl FivJob {
             params,
             cube_size,
             storage: if half { Storage::F16 } else { Storage::F32 },
+            yaw: (0, 1),
         })
     }
 }
@@ -174,6 +274,11 @@ pub fn cache_key(job: &FivJob) -> Result<String, CliError> {
         "env": spec_hash(&job.env)?,
         "env_rotate": job.env_rotate.name(),
     });
+    let mut v = v;
+    if job.yaw.0 != 0 {
+        // absent for unturned environments, so their keys stay what they were
+        v["yaw"] = json!([job.yaw.0, job.yaw.1]);
+    }
     Ok(blake3::hash(v.to_string().as_bytes()).to_hex().to_string())
 }
 
@@ -188,56 +293,107 @@ pub struct FivOutcome {
 
 /// Bakes (one shard of) a job and writes the asset atomically.
 pub fn bake_to(job: &FivJob, shard: Shard, output: &Path, mode: ProgressMode) -> Result<FivOutcome, CliError> {
+    let mut v = bake_many(std::slice::from_ref(job), shard, &[output.to_path_buf()], mode)?;
+    Ok(v.remove(0))
+}
+
+/// Bakes jobs that differ only in their environment from one visibility pass
+/// ([`penumbra_fiv::bake_multi`]) and writes `outputs[e]` for `jobs[e]`, each the bytes its
+/// job alone writes. `seconds` is the whole run's wall time in every outcome.
+pub fn bake_many(
+    jobs: &[FivJob],
+    shard: Shard,
+    outputs: &[PathBuf],
+    mode: ProgressMode,
+) -> Result<Vec<FivOutcome>, CliError> {
     let start = Instant::now();
-    let key = cache_key(job)?;
-    let mesh = load_occluder(&job.mesh)?;
-    let env = load_env(&job.env, job.env_rotate, job.cube_size)?;
-    let occ =
-        Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", job.mesh)))?;
-    let lighting = Lighting::new(env.data);
-    let reporter = Reporter::new("fiv", mode);
-    let b = penumbra_fiv::bake(&occ, &lighting, &job.params, shard, &reporter).map_err(CliError::input)?;
-    reporter.finish();
-    let inputs = json!({
-        "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},
-        "env": {"name": env.name, "blake3": env.blake3, "rotate": job.env_rotate.name()},
-    });
-    let ai = AssetInputs {
-        inputs,
-        cache_key: Some(key.clone()),
-        storage: job.storage,
-        env_cube: lighting.cube().texels(),
-        mesh: &mesh.data,
+    let Some(first) = jobs.first() else {
+        return Err(CliError::input(anyhow!("no environment to bake")));
     };
-    let asset = penumbra_fiv::to_asset(&b, &ai).map_err(CliError::input)?;
-    ensure_parent(output)?;
-    let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
-    let meta = penumbra_fiv::asset::meta_of(&b, &ai);
-    let l = job.params.layout;
-    let f = occ.frame();
-    let report = json!({
-        "samples": [l.azimuth, l.polar, l.radial],
-        "bytes": bytes,
-        "fiv_bytes": meta.metrics.fiv_bytes,
-        "rays_traced": b.stats.rays_traced,
-        "rays_hit": b.stats.rays_hit,
-        "rays_certified": b.stats.rays_certified,
-        "inside_samples": b.stats.inside_samples,
-        "center": f.center,
-        "radius": f.radius,
-        "cube_size": job.cube_size,
-        "storage": job.storage,
-        "shard": meta.shard,
-        "cache_key": key,
-        "output": output.display().to_string(),
-    });
-    Ok(FivOutcome { report, seconds: start.elapsed().as_secs_f64() })
+    if outputs.len() != jobs.len() {
+        return Err(CliError::input(anyhow!(
+            "{} environments but {} outputs: give one -o per --env (in the same order)",
+            jobs.len(),
+            outputs.len()
+        )));
+    }
+    for (i, o) in outputs.iter().enumerate() {
+        if outputs[..i].contains(o) {
+            return Err(CliError::input(anyhow!("-o {} is given twice", o.display())));
+        }
+    }
+    let keys: Vec<String> = jobs.iter().map(cache_key).collect::<Result<_, _>>()?;
+    let mesh = load_occluder(&first.mesh)?;
+    let envs: Vec<Input<CubeMap>> =
+        jobs.iter().map(|j| load_env_yawed(&j.env, j.env_rotate, j.yaw, j.cube_size)).collect::<Result<_, _>>()?;
+    let occ =
+        Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", first.mesh)))?;
+    let lightings: Vec<Lighting> = envs.iter().map(|e| Lighting::new(e.data.clone())).collect();
+    let refs: Vec<&Lighting> = lightings.iter().collect();
+    let reporter = Reporter::new("fiv", mode);
+    let bakes = penumbra_fiv::bake_multi(&occ, &refs, &first.params, shard, &reporter, penumbra_fiv::Culling::Auto)
+        .map_err(CliError::input)?;
+    reporter.finish();
+    let mut out = Vec::with_capacity(jobs.len());
+    for ((((job, env), lighting), b), (key, output)) in
+        jobs.iter().zip(&envs).zip(&lightings).zip(&bakes).zip(keys.iter().zip(outputs))
+    {
+        let mut inputs = json!({
+            "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},
+            "env": {"name": env.name, "blake3": env.blake3, "rotate": job.env_rotate.name()},
+        });
+        if job.yaw.0 != 0 {
+            inputs["env"]["yaw_turns"] = json!([job.yaw.0, job.yaw.1]);
+        }
+        let ai = AssetInputs {
+            inputs,
+            cache_key: Some(key.clone()),
+            storage: job.storage,
+            env_cube: lighting.cube().texels(),
+            mesh: &mesh.data,
+        };
+        let asset = penumbra_fiv::to_asset(b, &ai).map_err(CliError::input)?;
+        ensure_parent(output)?;
+        let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
+        let meta = penumbra_fiv::asset::meta_of(b, &ai);
+        let l = job.params.layout;
+        let f = occ.frame();
+        let report = json!({
+            "samples": [l.azimuth, l.polar, l.radial],
+            "bytes": bytes,
+            "fiv_bytes": meta.metrics.fiv_bytes,
+            "rays_traced": b.stats.rays_traced,
+            "rays_hit": b.stats.rays_hit,
+            "rays_certified": b.stats.rays_certified,
+            "inside_samples": b.stats.inside_samples,
+            "center": f.center,
+            "radius": f.radius,
+            "cube_size": job.cube_size,
+            "storage": job.storage,
+            "shard": meta.shard,
+            "cache_key": key,
+            "output": output.display().to_string(),
+            "env": env.name,
+            "mesh_import": mesh.report,
+            "env_import": env.report,
+            "warnings": mesh.warnings.iter().chain(&env.warnings).collect::<Vec<_>>(),
+        });
+        out.push(FivOutcome { report, seconds: 0.0 });
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    for o in &mut out {
+        o.seconds = seconds;
+    }
+    Ok(out)
 }
 
 fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
-    let (Some(mesh), Some(env), Some(output)) = (&a.mesh, &a.env, &a.output) else {
+    let Some(mesh) = &a.mesh else {
         return Err(CliError::input(anyhow!("--mesh, --env and -o are required")));
     };
+    if a.env.is_empty() || a.output.is_empty() {
+        return Err(CliError::input(anyhow!("--mesh, --env and -o are required")));
+    }
     let up = match a.up {
         UpArg::Y => UpAxis::Y,
         UpArg::Z => UpAxis::Z,
@@ -248,47 +404,74 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         EnvRotateArg::Y180 => Rotation::Y180,
         EnvRotateArg::Z180 => Rotation::Z180,
     };
-    let job = FivJob::new(
-        mesh,
-        env,
-        rot,
-        parse_samples(&a.samples)?,
-        a.r_min,
-        a.r_max,
-        up,
-        a.cube_size as usize,
-        a.irradiance_size as usize,
-        a.half,
-    )?;
+    let steps = a.yaw_steps as usize;
+    if steps > 1 && up != UpAxis::Y {
+        return Err(CliError::input(anyhow!("--yaw-steps turns the environment about +Y: it needs --up y")));
+    }
+    let specs: Vec<(&String, usize)> = a.env.iter().flat_map(|e| (0..steps).map(move |m| (e, m))).collect();
+    let jobs: Vec<FivJob> = specs
+        .iter()
+        .map(|&(env, m)| {
+            FivJob::new(
+                mesh,
+                env,
+                rot,
+                parse_samples(&a.samples)?,
+                a.r_min,
+                a.r_max,
+                up,
+                a.cube_size as usize,
+                a.irradiance_size as usize,
+                a.half,
+            )
+            .map(|mut j| {
+                j.yaw = (m, steps);
+                j
+            })
+        })
+        .collect::<Result<_, _>>()?;
     let shard = match &a.shard {
         Some(s) => {
             let (k, n) = super::bake::parse_shard(s)?;
             let sh = Shard { index: k, count: n };
-            sh.validate(job.params.layout.azimuth).map_err(|e| CliError::input(anyhow!("--shard: {e}")))?;
+            sh.validate(jobs[0].params.layout.azimuth).map_err(|e| CliError::input(anyhow!("--shard: {e}")))?;
             sh
         }
         None => Shard::WHOLE,
     };
-    let out = bake_to(&job, shard, output, mode)?;
-    let mut v = out.report;
-    v["seconds"] = json!(out.seconds);
+    let outs = bake_many(&jobs, shard, &a.output, mode)?;
+    let mut reports: Vec<Value> = outs
+        .into_iter()
+        .map(|o| {
+            let mut v = o.report;
+            v["seconds"] = json!(o.seconds);
+            v
+        })
+        .collect();
     if a.json {
-        print_json(&v);
+        if reports.len() == 1 {
+            print_json(&reports.remove(0));
+        } else {
+            print_json(&json!({ "tables": reports, "seconds": reports[0]["seconds"] }));
+        }
     } else {
         #[allow(clippy::print_stderr)]
-        {
+        for v in &reports {
             eprintln!(
                 "wrote {} ({} bytes, FIV data {} bytes) in {:.2} s\n  samples {}  rays {} ({} hit)  inside samples {}  R = {:.6}",
-                output.display(),
+                v["output"].as_str().unwrap_or_default(),
                 v["bytes"],
                 v["fiv_bytes"],
-                out.seconds,
+                v["seconds"].as_f64().unwrap_or(f64::NAN),
                 a.samples,
                 v["rays_traced"],
                 v["rays_hit"],
                 v["inside_samples"],
                 v["radius"].as_f64().unwrap_or(f64::NAN),
             );
+            for w in v["warnings"].as_array().into_iter().flatten() {
+                eprintln!("warning: {}", w.as_str().unwrap_or_default());
+            }
         }
     }
     Ok(ExitCode::Ok)
@@ -330,10 +513,46 @@ fn run_merge(a: &FivMergeArgs) -> Result<ExitCode, CliError> {
     Ok(ExitCode::Ok)
 }
 
-/// Runs `penumbra fiv` / `penumbra fiv merge`.
+fn run_export(a: &FivExportArgs) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let file = AssetFile::open(&a.asset).with_context(|| format!("cannot read FIV asset {}", a.asset.display()))?;
+    let asset = file.asset();
+    let bytes = penumbra_fiv::ktx2::to_ktx2(&asset, concat!("penumbra ", env!("CARGO_PKG_VERSION")))
+        .map_err(|e| CliError::input(anyhow!("{}: {e}", a.asset.display())))?;
+    ensure_parent(&a.ktx2)?;
+    penumbra_asset::write_file_atomic(&a.ktx2, &bytes).with_context(|| format!("cannot write {}", a.ktx2.display()))?;
+    let dims = asset.section("fiv").map(|s| s.dims().to_vec()).unwrap_or_default();
+    let v = json!({
+        "output": a.ktx2.display().to_string(),
+        "bytes": bytes.len(),
+        "format": "R32G32B32A32_SFLOAT",
+        "extent": [dims[0], dims[1], 3 * dims[2]],
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    if a.json {
+        print_json(&v);
+    } else {
+        #[allow(clippy::print_stderr)]
+        {
+            eprintln!(
+                "wrote {} ({} bytes): RGBA32F 3D texture {}×{}×{} (3 slabs of {} shells)",
+                a.ktx2.display(),
+                bytes.len(),
+                dims[0],
+                dims[1],
+                3 * dims[2],
+                dims[2]
+            );
+        }
+    }
+    Ok(ExitCode::Ok)
+}
+
+/// Runs `penumbra fiv` / `penumbra fiv merge` / `penumbra fiv export`.
 pub fn run(a: &FivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     match &a.command {
         Some(FivCommand::Merge(m)) => run_merge(m),
+        Some(FivCommand::Export(e)) => run_export(e),
         None => run_bake(&a.bake, mode),
     }
 }

@@ -225,7 +225,14 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
                 mesh.positions.push(world.to_array());
             }
             let b = base as u32;
-            mesh.indices.extend(tris.iter().map(|t| [t[0] + b, t[1] + b, t[2] + b]));
+            // glTF 2.0 §3.7.4: a node whose global transform has a negative determinant (a
+            // mirror) reverses the winding, so the front face stays counter-clockwise in the
+            // world. Skinned vertices ignore the node's transform (§3.7.3.3): kept as they are.
+            if vskin.is_none() && node_m.determinant() < 0.0 {
+                mesh.indices.extend(tris.iter().map(|t| [t[0] + b, t[2] + b, t[1] + b]));
+            } else {
+                mesh.indices.extend(tris.iter().map(|t| [t[0] + b, t[1] + b, t[2] + b]));
+            }
             triangle_primitives += 1;
         }
     }
@@ -713,6 +720,26 @@ mod tests {
         assert_eq!(scene.bindings[1].local, [1.0, 0.0, 0.0]);
         assert_eq!(report.source_triangles, 1);
         assert_eq!(scene.pose(None, 0.0).unwrap(), scene.mesh.positions);
+    }
+
+    /// A node mirrored in x (scale −1, determinant < 0) reverses the winding: the world-space
+    /// normal of the triangle stays +z as authored (glTF 2.0 §3.7.4); a rotation (positive
+    /// determinant) keeps the order.
+    #[test]
+    fn mirrored_node_reverses_the_winding() {
+        let normal = |text: &str| {
+            let (scene, _) = load_gltf_bytes(Path::new("m.gltf"), text.as_bytes(), Path::new(".")).unwrap();
+            let [a, b, c] = scene.mesh.indices[0].map(|i| DVec3::from(scene.mesh.positions[i as usize]));
+            (b - a).cross(c - a).normalize()
+        };
+        let plain = tri_gltf(None);
+        assert!((normal(&plain).z - 1.0).abs() < 1e-12);
+        let mirrored = plain.replace(r#""translation":[2,0,0]"#, r#""scale":[-1,1,1]"#);
+        assert!(mirrored.contains("scale"));
+        // positions mirrored (x → −x) would flip the normal to −z without the fix
+        assert!((normal(&mirrored).z - 1.0).abs() < 1e-12, "{}", normal(&mirrored));
+        let rotated = plain.replace(r#""translation":[2,0,0]"#, r#""rotation":[0,0,1,0]"#);
+        assert!((normal(&rotated).z - 1.0).abs() < 1e-12);
     }
 
     /// One triangle plus a line primitive and a point primitive: the two are skipped and
