@@ -199,6 +199,10 @@ pub struct SpheresFitArgs {
     /// sphere bounds, drop and re-split the redundant ones).
     #[arg(long)]
     pub no_refine: bool,
+    /// After the refinement, move spheres to lower the union's outside volume directly
+    /// (single and pairwise moves, measured on exactly classified outside points; slower).
+    #[arg(long)]
+    pub polish: bool,
     /// Also build the sphere hierarchy (SHEXP §6.3, branching 4).
     #[arg(long)]
     pub hierarchy: bool,

@@ -327,6 +327,24 @@ pub fn capsule_chain(cells: usize) -> TriMesh {
     implicit_surface(sdf, [-1.1 - pad, -0.3 - pad, -0.2 - pad], [1.1 + pad, 0.4 + pad, 0.3 + pad], cells)
 }
 
+/// Genus-4 test shape (a stand-in for a sculpture with four holes): a rounded plate
+/// 2.0 × 0.2 × 0.7 pierced by four round holes of radius 0.16 along its thin axis, leaving bars
+/// 0.16 wide between the holes and 0.19 beside them. Closed, by marching tetrahedra at `cells`
+/// along the longest side.
+pub fn four_hole_plate(cells: usize) -> TriMesh {
+    let half = DVec3::new(1.0, 0.1, 0.35);
+    let sdf = move |p: DVec3| {
+        let plate = rounded_box_sdf(p, DVec3::ZERO, half, 0.04);
+        let hole = [-0.72, -0.24, 0.24, 0.72]
+            .iter()
+            .map(|&x| ((p.x - x).powi(2) + p.z * p.z).sqrt() - 0.16)
+            .fold(f64::INFINITY, f64::min);
+        plate.max(-hole)
+    };
+    let pad = 0.0583;
+    implicit_surface(sdf, [-1.0 - pad, -0.1 - pad, -0.35 - pad], [1.0 + pad, 0.1 + pad, 0.35 + pad], cells)
+}
+
 /// An open mesh: the side of a cylinder (radius 0.15, length 1.5 along +Y, centred at the
 /// origin) without its caps, `n` segments around and `m` along. Its inside by the generalized
 /// winding number is the solid cylinder (the open ends are spanned like soap films).
@@ -466,5 +484,18 @@ mod tests {
         assert_eq!(o.indices.len(), 2 * 24 * 6);
         // outward: the signed volume of the side alone is positive (caps would add the rest)
         assert!(o.signed_volume() > 0.0);
+    }
+
+    #[test]
+    fn four_hole_plate_has_genus_four() {
+        let m = four_hole_plate(72);
+        assert!(m.is_watertight());
+        // Euler characteristic V − E + F = 2 − 2g of a closed triangle mesh (E = 3F/2)
+        let (v, f) = (m.positions.len() as i64, m.indices.len() as i64);
+        assert_eq!(v - 3 * f / 2 + f, -6, "V = {v}, F = {f}");
+        // the plate minus four cylinders (the rounded edges take a little more)
+        let exact = 2.0 * 0.2 * 0.7 - 4.0 * PI * 0.16f64.powi(2) * 0.2;
+        let vol = m.signed_volume();
+        assert!(vol < exact && vol > 0.95 * exact, "{vol} vs {exact}");
     }
 }

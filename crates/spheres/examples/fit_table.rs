@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! cargo run --release -p penumbra-spheres --example fit_table -- [--grid 48] [--counts 16,32,64,128] \
-//!     [--octree] [--no-refine] [--medial] [--iterations 100] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
+//!     [--octree] [--no-refine] [--medial] [--polish] [--iterations 100] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
 //! ```
 //!
 //! Names without a path are procedural shapes (`torus`: minor/major 0.19, 576 triangles) or
@@ -25,8 +25,19 @@ fn shape(name: &str) -> Option<TriMesh> {
         "thin-plate" => procedural::thin_plate(64),
         "capsule-chain" => procedural::capsule_chain(64),
         "open-tube" => procedural::open_tube(24, 12),
+        "four-hole-plate" => procedural::four_hole_plate(72),
         _ => return None,
     })
+}
+
+/// CPU seconds (user + system) this process has used so far (Linux `/proc/self/stat`; 0 elsewhere).
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    // fields after the parenthesised command name; utime and stime are fields 14 and 15
+    let rest = stat.rsplit_once(')').map_or("", |x| x.1);
+    let f: Vec<f64> = rest.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    // rest starts at field 3 (state, not numeric, skipped by the parse): utime is f[10]
+    if f.len() > 12 { (f[10] + f[11]) / 100.0 } else { 0.0 }
 }
 
 fn main() {
@@ -34,6 +45,7 @@ fn main() {
     let mut counts = vec![16usize, 32, 64, 128];
     let mut methods = vec![Method::Lloyd];
     let mut refine = true;
+    let mut polish = false;
     let mut iterations = 100usize;
     let mut seeding = penumbra_spheres::lloyd::Seeding::KMeansPlusPlus;
     let mut names = Vec::new();
@@ -46,6 +58,7 @@ fn main() {
             }
             "--octree" => methods.push(Method::Octree),
             "--no-refine" => refine = false,
+            "--polish" => polish = true,
             "--iterations" => iterations = args.next().and_then(|g| g.parse().ok()).expect("--iterations N"),
             "--medial" => seeding = penumbra_spheres::lloyd::Seeding::Medial,
             _ => names.push(a),
@@ -56,8 +69,8 @@ fn main() {
         "threads: {}, grid {grid}, refine {refine}, seeding {seeding:?}, iterations {iterations}",
         rayon::current_num_threads()
     );
-    println!("| mesh | triangles | method | N | count | E | union | uncovered pts | s | iterations |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| mesh | triangles | method | N | count | E | union | uncovered pts | s | cpu s | iterations |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for name in &names {
         let scene = match shape(name) {
             Some(mesh) => Scene { mesh, ..Scene::default() },
@@ -78,13 +91,16 @@ fn main() {
                 p.method = method;
                 p.grid = grid;
                 p.refine = refine;
+                p.polish = polish;
                 p.iterations = iterations;
                 p.seeding = seeding;
                 let t = Instant::now();
+                let cpu0 = cpu_seconds();
                 let r = penumbra_spheres::fit(&scene, &p, &NoProgress).expect("fit");
                 let s = t.elapsed().as_secs_f64() - r.report.finish_seconds;
+                let cpu = cpu_seconds() - cpu0;
                 println!(
-                    "| {name} | {} | {method:?} | {n} | {} | {:.3} | {:.3} | {} | {s:.2} | {} |",
+                    "| {name} | {} | {method:?} | {n} | {} | {:.3} | {:.3} | {} | {s:.2} | {cpu:.2} | {} |",
                     scene.mesh.indices.len(),
                     r.spheres.len(),
                     r.metrics.outside_volume_ratio,

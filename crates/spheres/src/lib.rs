@@ -7,7 +7,8 @@
 //!
 //! - [`fit::fit`]: the whole bake (import is the CLI's job): canonical frame, signed-distance
 //!   grid, samples, the Lloyd fit ([`lloyd`], from medial-axis seeds) and its union-aware
-//!   refinement ([`refine`]) or the octree baseline ([`octree`]), f32 rounding that keeps the
+//!   refinement ([`refine`]), optionally the union polish ([`polish`]), or the octree
+//!   baseline ([`octree`]), f32 rounding that keeps the
 //!   set bounding, [`hierarchy`], [`skin`], and the [`metrics`]. Target searches
 //!   (`Target::Error`, `Target::Union`) bisect to the smallest requested count that meets them.
 //! - [`asset`]: the `SPHR` asset (sections in `schemas/asset-format.md`).
@@ -25,6 +26,7 @@ pub mod hierarchy;
 pub mod lloyd;
 pub mod metrics;
 pub mod octree;
+pub mod polish;
 pub mod powell;
 pub mod reference;
 pub mod refine;

@@ -83,6 +83,9 @@ fn params_json(job: &SpheresJob) -> Value {
         if target_union.is_some() {
             o.insert("target_union".into(), json!(target_union));
         }
+        if p.polish {
+            o.insert("polish".into(), json!(true));
+        }
         if count.is_none() {
             o.insert("max_count".into(), json!(p.max_count));
         }
@@ -255,6 +258,7 @@ pub fn job_from_args(a: &SpheresFitArgs) -> Result<SpheresJob, CliError> {
         crate::args::SphereSeeding::KmeansPlusPlus => penumbra_spheres::lloyd::Seeding::KMeansPlusPlus,
     };
     params.refine = !a.no_refine;
+    params.polish = a.polish;
     params.hierarchy = a.hierarchy;
     params.skin = a.skin;
     params.metrics.seed = a.seed;
