@@ -303,17 +303,16 @@ impl<'a> ShTables<'a> {
         }
         let mut g = [0.0f32; N2_MAX];
         self.product(&h[..n2], &odd[..n2], &mut g[..n2]);
+        // DC folded in before the squarings (see `exp_hyb`)
+        let dc = (f[0] / sqrt_4pi * scale).exp();
         for i in 0..n2 {
-            g[i] += even[i];
+            g[i] = (g[i] + even[i]) * dc;
         }
         for _ in 0..s {
             self.square(&g[..n2], &mut tmp[..n2]);
             g = tmp;
         }
-        let dc = (f[0] / sqrt_4pi).exp();
-        for i in 0..n2 {
-            out[i] = g[i] * dc;
-        }
+        out[..n2].copy_from_slice(&g[..n2]);
     }
 
     /// HYB's number of squarings `s` for an input of AC norm `norm_hat`: none inside OL's
@@ -353,10 +352,11 @@ impl<'a> ShTables<'a> {
             let s = self.hyb_squarings(norm_hat);
             let scale = 0.5f32.powi(s);
             let (a, b) = self.ol_ab(norm_hat * scale);
+            let dc = (f[0][lane] / sqrt_4pi * scale).exp();
             steps[lane] = s;
-            g[0][lane] = a * sqrt_4pi;
+            g[0][lane] = dc * a * sqrt_4pi;
             for i in 1..N2 {
-                g[i][lane] = b * scale * f[i][lane];
+                g[i][lane] = dc * b * scale * f[i][lane];
             }
         }
         let max_steps = steps.iter().copied().max().unwrap_or(0);
@@ -371,12 +371,7 @@ impl<'a> ShTables<'a> {
                 }
             }
         }
-        for lane in 0..L {
-            let dc = (f[0][lane] / sqrt_4pi).exp();
-            for i in 0..N2 {
-                out[i][lane] = g[i][lane] * dc;
-            }
-        }
+        *out = g;
     }
 
     /// HYB SH exponential (SHEXP §4.3): DC isolation, scale `f̂` by `2^-s` so it lies in
@@ -391,17 +386,19 @@ impl<'a> ShTables<'a> {
         let (a, b) = self.ol_ab(norm_hat * scale);
         let mut g = [0.0f32; N2_MAX];
         let mut tmp = [0.0f32; N2_MAX];
-        g[0] = a * sqrt_4pi;
+        // The DC factor is folded in before the squarings, scaled like the rest:
+        // exp(f) = (e^{f₀/(√4π 2^s)} OL(f̂/2^s))^{2^s}. Applied after them (SHEXP eq. 20's
+        // separation), the AC part grows like e^{‖f̂‖} while the DC factor shrinks like
+        // e^{f₀/√4π}; with hundreds of dense blockers both leave f32's range (inf·0 = NaN).
+        let dc = (f[0] / sqrt_4pi * scale).exp();
+        g[0] = dc * a * sqrt_4pi;
         for i in 1..n2 {
-            g[i] = b * scale * f[i];
+            g[i] = dc * b * scale * f[i];
         }
         for _ in 0..s {
             self.square(&g[..n2], &mut tmp[..n2]);
             g[..n2].copy_from_slice(&tmp[..n2]);
         }
-        let dc = (f[0] / sqrt_4pi).exp();
-        for i in 0..n2 {
-            out[i] = g[i] * dc;
-        }
+        out[..n2].copy_from_slice(&g[..n2]);
     }
 }
