@@ -63,7 +63,7 @@ pub enum TablesError {
     },
     /// The smooth clamp at `α = 1/η` does not fit on the α grid.
     #[error(
-        "theta sample count {k} cannot represent the smooth clamp at alpha = 1/eta = {alpha_c:.4}: its 4 entries around round(alpha (K-1)) = {j} need j >= 3 (use --theta-samples >= {min_k})"
+        "theta sample count {k} cannot represent the smooth clamp at alpha = 1/eta = {alpha_c:.4}: its 4 entries around round(alpha (K-1)) = {j} need j >= 2 (use --theta-samples >= {min_k})"
     )]
     ClampNotRepresentable {
         /// K.
@@ -287,15 +287,15 @@ fn clamp_cells(k: usize) -> f64 {
     ((k - 1) as f64).min(255.0)
 }
 
-/// Checks that the smooth clamp at `alpha_c` lies on the grid: `j = round(α_c·cells) ≥ 3`,
-/// so that its four ramp entries `j − 2 … j + 1` sit above α = 0 (at K = 16 and η ≈ 28,
-/// `j = 1` and 1/η is not representable).
+/// Checks that the smooth clamp at `alpha_c` lies on the grid: `j = round(α_c·cells) ≥ 2`,
+/// so that its four ramp entries `j − 2 … j + 1` exist (at K = 16 and η ≈ 28, `j = 1`:
+/// 1/η is not representable and the ramp would start below α = 0).
 pub fn clamp_fits(k: usize, alpha_c: f64) -> Result<(), TablesError> {
     let j = (alpha_c * clamp_cells(k)).round() as i64;
-    if j >= 3 {
+    if j >= 2 {
         return Ok(());
     }
-    let min_k = (2.5 / alpha_c).ceil() as usize + 1;
+    let min_k = (1.5 / alpha_c).ceil() as usize + 1;
     Err(TablesError::ClampNotRepresentable { k, alpha_c, j, min_k })
 }
 

