@@ -62,7 +62,7 @@ fn bad_configs_name_file_key_and_line() {
         assert!(stderr.contains(at) && stderr.contains(what), "{body}: {stderr}");
         assert!(!dir.path().join("out").exists(), "no output for a bad config");
     }
-    let cfg = write_config(dir.path(), "output_dir = \"out\"\n[tables]\norder = 2\ntheta_samples = 16\n");
+    let cfg = write_config(dir.path(), "output_dir = \"out\"\n[tables]\norder = 2\ntheta_samples = 32\n");
     let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg).args(["--only", "spheres"]));
     assert_eq!(code, 2);
     assert!(stderr.contains("spheres"), "{stderr}");

@@ -201,7 +201,7 @@ fn verify_plane_reports_its_keys_and_writes_the_image() {
     // not a FIVT asset, a damaged one, a bad placement: exit 2 naming the file
     let tables = dir.path().join("t.shtb");
     let (code, _, stderr) =
-        run(penumbra().args(["tables", "--order", "2", "--theta-samples", "16", "-o"]).arg(&tables));
+        run(penumbra().args(["tables", "--order", "2", "--theta-samples", "32", "-o"]).arg(&tables));
     assert_eq!(code, 0, "{stderr}");
     let (code, _, stderr) = run(penumbra().args(["verify", "fiv", "--plane", "--fiv"]).arg(&tables));
     assert_eq!(code, 2);

@@ -3,7 +3,7 @@ use serde_json::Value;
 
 fn small_asset(dir: &std::path::Path) -> std::path::PathBuf {
     let out = dir.join("t.shtb");
-    let (code, _, stderr) = run(penumbra().args(["tables", "--order", "2", "--theta-samples", "16", "-o"]).arg(&out));
+    let (code, _, stderr) = run(penumbra().args(["tables", "--order", "2", "--theta-samples", "32", "-o"]).arg(&out));
     assert_eq!(code, 0, "{stderr}");
     out
 }
@@ -44,8 +44,8 @@ fn section_json_is_flat_row_major_with_exact_values() {
     let (code, stdout, _) = run(penumbra().arg("inspect").arg(&a).args(["--section", "cap_log", "--json"]));
     assert_eq!(code, 0);
     let v: Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(v["dims"], serde_json::json!([16, 2]));
-    assert_eq!(v["values"].as_array().unwrap().len(), 32);
+    assert_eq!(v["dims"], serde_json::json!([32, 2]));
+    assert_eq!(v["values"].as_array().unwrap().len(), 64);
     // θ = 0: no blocker, log visibility 0
     assert_eq!(v["values"][0].as_f64().unwrap(), 0.0);
     // dump shows statistics for large sections and values for small ones
@@ -56,7 +56,7 @@ fn section_json_is_flat_row_major_with_exact_values() {
     let eta = secs.iter().find(|s| s["name"] == "eta").unwrap();
     assert_eq!(eta["values"].as_array().unwrap().len(), 4);
     let m = secs.iter().find(|s| s["name"] == "indirect_m").unwrap();
-    assert_eq!(m["summary"]["count"], 16 * 81);
+    assert_eq!(m["summary"]["count"], 32 * 81);
 }
 
 #[test]

@@ -11,6 +11,7 @@ mod mrt;
 mod mrt_level;
 mod runtime;
 mod shadows;
+mod shadows_extremes;
 mod spheres;
 mod tables;
 mod verify_shadows;

@@ -89,13 +89,13 @@ fn unwritable_output_fails_cleanly_without_partial_files() {
     std::fs::write(&blocker, b"x").unwrap();
     // parent of the output is a regular file
     let (code, _, stderr) =
-        run(penumbra().args(["tables", "--order", "2", "--theta-samples", "16", "-o"]).arg(blocker.join("t.shtb")));
+        run(penumbra().args(["tables", "--order", "2", "--theta-samples", "32", "-o"]).arg(blocker.join("t.shtb")));
     assert_eq!(code, 2);
     assert!(stderr.contains("file"), "{stderr}");
     // output path is an existing directory: nothing is clobbered, no temp file is left
     let target = dir.path().join("adir");
     std::fs::create_dir(&target).unwrap();
-    let (code, _, _) = run(penumbra().args(["tables", "--order", "2", "--theta-samples", "16", "-o"]).arg(&target));
+    let (code, _, _) = run(penumbra().args(["tables", "--order", "2", "--theta-samples", "32", "-o"]).arg(&target));
     assert_eq!(code, 2);
     assert!(target.is_dir());
     assert_eq!(listing(dir.path()), vec!["adir".to_string(), "file".to_string()]);

@@ -60,6 +60,15 @@ pub struct SchemaArgs {
     pub clutter: bool,
 }
 
+/// `penumbra tables --log-form`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LogFormArg {
+    /// `Rᵀ q'(D̃) R (g − 1)`, `D̃ = max(D, ε)`, as SHEXP eq. 30–32 write it.
+    Paper,
+    /// `log(M̃_g)·1`: eq. 30 on the clipped matrix (the pre-#14 form).
+    Matrix,
+}
+
 fn parse_tolerance(s: &str) -> Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
     if v > 0.0 && v < 1.0 { Ok(v) } else { Err(format!("{v} is out of range (allowed: 0 < T < 1)")) }
@@ -80,6 +89,9 @@ pub struct TablesArgs {
     /// Environment map (lat-long .exr/.hdr) to specialise the shadow η to its lighting.
     #[arg(long)]
     pub env: Option<PathBuf>,
+    /// Form of the eigen SH log once eigenvalue clipping engages (SHEXP eq. 30–32).
+    #[arg(long, value_enum, default_value_t = LogFormArg::Paper)]
+    pub log_form: LogFormArg,
     /// Output asset (.shtb). Parent directories are created.
     #[arg(short = 'o', long)]
     pub output: PathBuf,

@@ -25,4 +25,4 @@ mod tables;
 
 pub use error::RuntimeError;
 pub use sphere_set::{NodeRef, SphereSet};
-pub use tables::{MAX_ORDER, ShTables};
+pub use tables::{MAX_ORDER, NEAR_CONTACT_ALPHA, ShTables};

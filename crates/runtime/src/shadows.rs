@@ -46,6 +46,15 @@ pub struct Sphere {
     pub radius: f32,
 }
 
+impl Sphere {
+    /// Whether the sphere can block: finite centre, finite radius > 0. Invalid blockers
+    /// (NaN radius through the API, say) are ignored by every evaluation path.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        self.radius > 0.0 && self.radius.is_finite() && self.center.iter().all(|c| c.is_finite())
+    }
+}
+
 fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -211,22 +220,20 @@ impl<'a> ShadowEvaluator<'a> {
         f: &mut [f32],
     ) {
         let mut acc = [0.0f32; N2];
-        let alpha_cut = self.tables.alpha_cut();
         let basis = self.tables.basis();
         for i in 0..count {
             let (s0, w) = get(i);
             let Some(s) = self.effective(s0, p, n) else { continue };
             let v = sub(s.center, p);
             let d2 = dot(v, v);
-            if d2.is_nan() || d2 <= 0.0 || s.radius <= 0.0 {
+            if d2.is_nan() || d2 <= 0.0 || s.radius.is_nan() || s.radius <= 0.0 {
                 continue;
             }
             let d = d2.sqrt();
             let alpha = (s.radius / d).min(1.0);
-            if alpha <= alpha_cut {
-                continue; // outside the sphere of influence (smooth clamp, IBPA §4.1)
-            }
-            let mut zh = self.tables.proxy_log_occlusion_n::<N>(alpha);
+            // no sphere-of-influence skip: far blockers add their small-cap log
+            // (`ShTables::proxy_log`), so many small ones keep their summed shadow
+            let mut zh = self.tables.proxy_log_n::<N>(alpha);
             if let Some(w) = w {
                 for l in 0..N {
                     zh[l] *= w[l];
@@ -238,35 +245,21 @@ impl<'a> ShadowEvaluator<'a> {
         f[..N2].copy_from_slice(&acc);
     }
 
-    /// Adds one sphere's log visibility, optionally scaled per band by `w` (SHEXP eq. 38).
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn add_sphere_log(
-        &self,
-        p: [f32; 3],
-        s: Sphere,
-        scale: f32,
-        w: Option<&[f32]>,
-        zh: &mut [f32; MAX_ORDER],
-        f: &mut [f32],
-    ) {
+    /// Adds one (already replaced) sphere's log visibility at `p` to `f`.
+    pub(crate) fn add_sphere_log(&self, p: [f32; 3], s: Sphere, f: &mut [f32]) {
         let order = self.order;
         let v = sub(s.center, p);
         let d = dot(v, v).sqrt();
-        if d.is_nan() || d <= 0.0 || s.radius <= 0.0 {
+        if d.is_nan() || d <= 0.0 || s.radius.is_nan() || s.radius <= 0.0 {
             return;
         }
         // p outside after the replacement rules; if still inside (rules off), treat the
         // blocker as covering the whole hemisphere seen from the surface: α = 1.
         let alpha = (s.radius / d).min(1.0);
-        if alpha <= self.tables.alpha_cut() {
-            return; // outside the sphere of influence (smooth clamp, IBPA §4.1)
-        }
-        self.tables.proxy_log_occlusion(alpha, &mut zh[..order]);
+        let mut zh = [0.0f32; MAX_ORDER];
+        self.tables.proxy_log(alpha, &mut zh[..order]);
         let inv = 1.0 / d;
         let dir = [v[0] * inv, v[1] * inv, v[2] * inv];
-        for l in 0..order {
-            zh[l] *= scale * w.map_or(1.0, |w| w[l]);
-        }
         self.tables.basis().add_zonal(dir, &zh[..order], f);
     }
 
@@ -387,7 +380,6 @@ impl ShadowEvaluator<'_> {
         out.clear();
         let order = self.order;
         let n2 = order * order;
-        let mut zh = [0.0f32; MAX_ORDER];
         for &node in cut {
             let sphere = set.sphere(node);
             let mut w = [1.0f32; MAX_ORDER];
@@ -395,21 +387,14 @@ impl ShadowEvaluator<'_> {
                 let mut fb = [0.0f32; N2];
                 let mut fd = [0.0f32; N2];
                 if let Some(s) = self.effective(sphere, p_star, n_star) {
-                    self.add_sphere_log(p_star, s, 1.0, None, &mut zh, &mut fb[..n2]);
+                    self.add_sphere_log(p_star, s, &mut fb[..n2]);
                 }
                 set.for_leaves_below(node, &mut |leaf| {
                     if let Some(s) = self.effective(set.leaf(leaf as usize), p_star, n_star) {
-                        self.add_sphere_log(p_star, s, 1.0, None, &mut zh, &mut fd[..n2]);
+                        self.add_sphere_log(p_star, s, &mut fd[..n2]);
                     }
                 });
-                for l in 0..order {
-                    let (mut num, mut den) = (0.0f32, 0.0f32);
-                    for i in l * l..(l + 1) * (l + 1) {
-                        num += fb[i] * fd[i];
-                        den += fb[i] * fb[i];
-                    }
-                    w[l] = if den > 0.0 { num / den } else { 1.0 };
-                }
+                w = ratio_vector(&fb[..n2], &fd[..n2], order);
             }
             out.push(CutBlocker { sphere, w });
         }
@@ -417,8 +402,14 @@ impl ShadowEvaluator<'_> {
 
     /// The sphere a receiver at `(p, n)` accumulates for blocker `s` (self-shadow rules when
     /// enabled).
+    ///
+    /// A blocker whose radius is not a positive finite number or whose centre is not finite
+    /// (NaN through the API) is ignored, in every path (scalar, batched, product, indirect).
     #[inline]
     fn effective(&self, s: Sphere, p: [f32; 3], n: [f32; 3]) -> Option<Sphere> {
+        if !s.is_valid() {
+            return None;
+        }
         if self.options.self_shadow_rules { replace(s, p, n) } else { Some(s) }
     }
 
@@ -506,14 +497,7 @@ impl ShadowEvaluator<'_> {
         let mut d = [0.0f32; 3];
         let basis3 = &self.basis3;
         for &s0 in spheres {
-            let s = if self.options.self_shadow_rules {
-                match replace(s0, p, n) {
-                    Some(s) => s,
-                    None => continue,
-                }
-            } else {
-                s0
-            };
+            let Some(s) = self.effective(s0, p, n) else { continue };
             let w = sub(s.center, p);
             let dist = dot(w, w).sqrt();
             if dist.is_nan() || dist <= 0.0 {
@@ -552,6 +536,41 @@ impl ShadowEvaluator<'_> {
         }
         Shaded { direct, indirect }
     }
+}
+
+/// Largest ratio a band may take, relative to the DC ratio `w₀` (see [`ratio_vector`]).
+pub const RATIO_BOUND: f32 = 4.0;
+/// A band whose energy in `f_b` is below this fraction of the DC's is ill-conditioned.
+pub const RATIO_BAND_FLOOR: f32 = 1e-3;
+
+/// The ratio vector of a node (SHEXP eq. 37): per band `w_l = Σ_m f_b f_d / Σ_m f_b²`,
+/// the least-squares scale of the node's log `f_b` onto its leaves' summed log `f_d`.
+///
+/// Bounded (issue #14): eq. 37 divides by the band energy of `f_b`, which nears zero for
+/// large caps at high order (a band of the cap's ZH crosses zero; order 8, θ ≳ 29°), and the
+/// ratio then explodes at every other receiver of the cluster. The DC ratio `w₀` is always
+/// well conditioned (`f_b0 < 0`), so
+/// - a band with `Σ_m f_b² < 10⁻³·f_b0²` takes `w₀`;
+/// - every band is clamped to `[0, 4·max(w₀, 1)]` (a node's leaves never block more than
+///   the node's bounding sphere does, per band, by more than that: overlap counts twice).
+pub fn ratio_vector(fb: &[f32], fd: &[f32], order: usize) -> [f32; MAX_ORDER] {
+    let mut w = [1.0f32; MAX_ORDER];
+    let den0 = fb[0] * fb[0];
+    if den0.is_nan() || den0 <= 0.0 {
+        return w;
+    }
+    let w0 = (fb[0] * fd[0] / den0).max(0.0);
+    let hi = RATIO_BOUND * w0.max(1.0);
+    for l in 0..order {
+        let (mut num, mut den) = (0.0f32, 0.0f32);
+        for i in l * l..(l + 1) * (l + 1) {
+            num += fb[i] * fd[i];
+            den += fb[i] * fb[i];
+        }
+        let r = if den > RATIO_BAND_FLOOR * den0 { num / den } else { w0 };
+        w[l] = if r.is_finite() { r.clamp(0.0, hi) } else { w0 };
+    }
+    w
 }
 
 fn band(i: usize) -> usize {

@@ -8,6 +8,71 @@ use penumbra_asset::{Asset, DType};
 /// Scratch size for order-8 SH vectors.
 const N2_MAX: usize = MAX_ORDER * MAX_ORDER;
 
+/// From this `α` up, blockers read the θ-grid `cap_log` table (see [`ShTables::proxy_log`]).
+pub const NEAR_CONTACT_ALPHA: f32 = 0.9;
+
+/// The small-cap continuation of the proxy log below the smooth clamp's ramp.
+#[derive(Debug, Clone)]
+struct FarField {
+    /// Top of the ramp: from here up the table is unclamped.
+    alpha_top: f32,
+    /// `1/u_top`, `u_top = 1 − cos θ_top`.
+    inv_u_top: f32,
+    /// `ρ_l − 1`: table log over −occlusion at `α_top`, minus one.
+    ratio_m1: [f32; MAX_ORDER],
+    /// `o*_l(u)/(2πu)` as polynomial coefficients in `u` (ascending), exact.
+    shape: [[f32; MAX_ORDER + 1]; MAX_ORDER],
+}
+
+impl FarField {
+    /// The smooth clamp's ramp (asset spec, SHTB): `j = round(c/η)`, `c = min(K − 1, 255)`,
+    /// ramp weights reach 1 at `α = (j + 2)/c`.
+    fn new(plo: &[f32], order: usize, k: usize, eta: f32) -> Self {
+        let cells = ((k - 1) as f64).min(255.0);
+        let eta = if eta.is_finite() && eta > 1.0 { eta as f64 } else { 1.0 };
+        let j = (cells / eta).round();
+        let alpha_top = ((j + 2.0) / cells).clamp(1.0 / (k - 1) as f64, NEAR_CONTACT_ALPHA as f64);
+        let u_top = alpha_top * alpha_top / (1.0 + (1.0 - alpha_top * alpha_top).sqrt());
+        // P_l(1 − u) = Σ_k c_{l,k} u^k, c_{l,k} = (−1)^k (l+k)! / ((k!)² (l−k)! 2^k)
+        let leg = |l: usize, kk: usize| -> f64 {
+            if kk > l {
+                return 0.0;
+            }
+            let f = |n: usize| (1..=n).map(|i| i as f64).product::<f64>();
+            let sign = if kk % 2 == 0 { 1.0 } else { -1.0 };
+            sign * f(l + kk) / (f(kk) * f(kk) * f(l - kk) * 2f64.powi(kk as i32))
+        };
+        let mut shape = [[0.0f32; MAX_ORDER + 1]; MAX_ORDER];
+        let mut shape64 = [[0.0f64; MAX_ORDER + 1]; MAX_ORDER];
+        for l in 0..order {
+            // o*_l = 2π ∫_{1−u}^1 P_l = 2π (P_{l−1} − P_{l+1})(1 − u)/(2l + 1) (l ≥ 1), 2πu (l = 0)
+            for kk in 1..=MAX_ORDER + 1 {
+                let c = if l == 0 {
+                    if kk == 1 { 1.0 } else { 0.0 }
+                } else {
+                    (leg(l - 1, kk) - leg(l + 1, kk)) / (2 * l + 1) as f64
+                };
+                shape64[l][kk - 1] = c;
+                shape[l][kk - 1] = c as f32;
+            }
+        }
+        let occ = |l: usize, u: f64| -> f64 {
+            2.0 * core::f64::consts::PI * u * shape64[l].iter().rev().fold(0.0, |s, &c| s * u + c)
+        };
+        // table row at α_top (lerp, as the runtime reads it)
+        let t = alpha_top * (k - 1) as f64;
+        let i = (t as usize).min(k - 2);
+        let w = t - i as f64;
+        let mut ratio_m1 = [0.0f32; MAX_ORDER];
+        for l in 0..order {
+            let row = plo[i * order + l] as f64 * (1.0 - w) + plo[(i + 1) * order + l] as f64 * w;
+            let o = occ(l, u_top);
+            ratio_m1[l] = if o.abs() > 0.0 && row != 0.0 { (row / -o - 1.0) as f32 } else { 0.0 };
+        }
+        Self { alpha_top: alpha_top as f32, inv_u_top: (1.0 / u_top) as f32, ratio_m1, shape }
+    }
+}
+
 /// The SH tables of one order (SHEXP §4–6), read from an `SHTB` asset.
 ///
 /// Grids (see the asset spec): cap tables on `θ_k = (π/2)k/(K−1)`, proxy tables on
@@ -21,9 +86,8 @@ pub struct ShTables<'a> {
     /// Γ for squaring `g * g`: entries with `j ≤ k`, off-diagonal ones doubled (built once at
     /// load; halves the work of HYB's and PS*'s squarings).
     gamma_square: Vec<(u8, u8, u8, f32)>,
-    /// Largest α whose log-occlusion row and everything below it are zero (IBPA's sphere of
-    /// influence): blockers at or below it contribute nothing and are skipped early.
-    alpha_cut: f32,
+    /// Where the blocker log leaves the tables (see [`ShTables::proxy_log`]).
+    far: FarField,
     cap_log: &'a [f32],
     cap_visibility: &'a [f32],
     proxy_log_occlusion: &'a [f32],
@@ -93,12 +157,10 @@ impl<'a> ShTables<'a> {
             .map(|(ix, &v)| (ix[0] as u8, ix[1] as u8, ix[2] as u8, if ix[1] < ix[2] { 2.0 * v } else { v }))
             .collect();
         let plo = f32s(asset, "proxy_log_occlusion", &[k, order])?;
-        let first_nonzero = (0..k).find(|&r| plo[r * order..(r + 1) * order].iter().any(|&v| v != 0.0)).unwrap_or(k);
-        // α grid: α_r = r/(K−1); at or below α_{r0−1} the interpolated row is zero
-        let alpha_cut = if first_nonzero == 0 { -1.0 } else { (first_nonzero - 1) as f32 / (k - 1) as f32 };
+        let far = FarField::new(plo, order, k, eta[0]);
         Ok(Self {
             gamma_square,
-            alpha_cut,
+            far,
             order,
             k,
             gamma_index,
@@ -223,22 +285,77 @@ impl<'a> ShTables<'a> {
         }
     }
 
-    /// The log-occlusion row interpolated at `alpha` for a compile-time order `N` (see
-    /// [`ShTables::proxy_log_occlusion`]).
+    /// The log visibility a blocker with `α = sin θ` adds (starred ZH, compile-time order
+    /// `N`): what [`ShTables::proxy_log`] returns.
+    ///
+    /// - `α ≥` [`NEAR_CONTACT_ALPHA`]: the unclamped `cap_log` row at `θ = asin α` (uniform θ
+    ///   grid). Near α = 1, θ(α) has an infinite slope and a uniform-α lerp of
+    ///   `proxy_log_occlusion` is off by 4 % in the last cell at K = 256; in θ it is smooth.
+    /// - between the top of the smooth-clamp ramp `α_top` and that: `proxy_log_occlusion`,
+    ///   linearly interpolated in α (IBPA §4.1's table, unclamped there).
+    /// - below `α_top`: the small-cap log, continuous with the table at `α_top`:
+    ///   `−o*_l(α)·(1 + (ρ_l − 1)·u/u_top)`, `o*_l` the cap's exact starred occlusion as a
+    ///   polynomial in `u = 1 − cos θ` (no cancellation in f32), `ρ_l` the table's ratio of
+    ///   log to −occlusion at `α_top` (→ 1 as α → 0: `log(1 − o) = −o + O(o²)`).
+    ///
+    /// So the smooth clamp of IBPA §4.1 never drops a leaf: many small blockers keep their
+    /// summed shadow at any distance (issue #14: the whole object at 20 diagonals).
     #[inline(always)]
-    pub(crate) fn proxy_log_occlusion_n<const N: usize>(&self, alpha: f32) -> [f32; N] {
-        let k = self.k;
-        let t = alpha.clamp(0.0, 1.0) * (k - 1) as f32;
-        let i = (t as usize).min(k - 2);
-        let w = t - i as f32;
-        let rows = &self.proxy_log_occlusion[i * N..(i + 2) * N];
-        core::array::from_fn(|l| rows[l] * (1.0 - w) + rows[N + l] * w)
+    pub(crate) fn proxy_log_n<const N: usize>(&self, alpha: f32) -> [f32; N] {
+        let alpha = alpha.clamp(0.0, 1.0);
+        if alpha >= NEAR_CONTACT_ALPHA {
+            let k = self.k;
+            let t = alpha.asin() * core::f32::consts::FRAC_2_PI * (k - 1) as f32;
+            let i = (t as usize).min(k - 2);
+            let w = t - i as f32;
+            let rows = &self.cap_log[i * N..(i + 2) * N];
+            return core::array::from_fn(|l| rows[l] * (1.0 - w) + rows[N + l] * w);
+        }
+        if alpha >= self.far.alpha_top {
+            let k = self.k;
+            let t = alpha * (k - 1) as f32;
+            let i = (t as usize).min(k - 2);
+            let w = t - i as f32;
+            let rows = &self.proxy_log_occlusion[i * N..(i + 2) * N];
+            return core::array::from_fn(|l| rows[l] * (1.0 - w) + rows[N + l] * w);
+        }
+        let a2 = alpha * alpha;
+        let u = a2 / (1.0 + (1.0 - a2).sqrt());
+        let x = u * self.far.inv_u_top;
+        core::array::from_fn(|l| {
+            let c = &self.far.shape[l];
+            let mut s = 0.0f32;
+            for &ck in c.iter().rev() {
+                s = s * u + ck;
+            }
+            -core::f32::consts::TAU * u * s * (1.0 + self.far.ratio_m1[l] * x)
+        })
     }
 
-    /// Largest `α` at which a blocker's (smoothly clamped) log occlusion is still zero.
-    #[inline]
-    pub fn alpha_cut(&self) -> f32 {
-        self.alpha_cut
+    /// [`ShTables::proxy_log_n`] for the tables' order into `out` (`order` entries): the
+    /// starred ZH log visibility a blocker of `α = sin θ` adds at run time.
+    pub fn proxy_log(&self, alpha: f32, out: &mut [f32]) {
+        macro_rules! go {
+            ($n:literal) => {{
+                let v = self.proxy_log_n::<$n>(alpha);
+                out[..$n].copy_from_slice(&v);
+            }};
+        }
+        match self.order {
+            2 => go!(2),
+            3 => go!(3),
+            4 => go!(4),
+            5 => go!(5),
+            6 => go!(6),
+            7 => go!(7),
+            _ => go!(8),
+        }
+    }
+
+    /// The top of the smooth-clamp ramp in α: below it [`ShTables::proxy_log`] uses the
+    /// small-cap log instead of the (ramped) table.
+    pub fn alpha_top(&self) -> f32 {
+        self.far.alpha_top
     }
 
     /// Product matrix `(M_f)_ij = Σ_k Γ_ijk f_k` (SHEXP eq. 5), row-major `n² × n²` into `out`.
@@ -303,17 +420,16 @@ impl<'a> ShTables<'a> {
         }
         let mut g = [0.0f32; N2_MAX];
         self.product(&h[..n2], &odd[..n2], &mut g[..n2]);
+        // DC folded in before the squarings (see `exp_hyb`)
+        let dc = (f[0] / sqrt_4pi * scale).exp();
         for i in 0..n2 {
-            g[i] += even[i];
+            g[i] = (g[i] + even[i]) * dc;
         }
         for _ in 0..s {
             self.square(&g[..n2], &mut tmp[..n2]);
             g = tmp;
         }
-        let dc = (f[0] / sqrt_4pi).exp();
-        for i in 0..n2 {
-            out[i] = g[i] * dc;
-        }
+        out[..n2].copy_from_slice(&g[..n2]);
     }
 
     /// HYB's number of squarings `s` for an input of AC norm `norm_hat`: none inside OL's
@@ -353,10 +469,11 @@ impl<'a> ShTables<'a> {
             let s = self.hyb_squarings(norm_hat);
             let scale = 0.5f32.powi(s);
             let (a, b) = self.ol_ab(norm_hat * scale);
+            let dc = (f[0][lane] / sqrt_4pi * scale).exp();
             steps[lane] = s;
-            g[0][lane] = a * sqrt_4pi;
+            g[0][lane] = dc * a * sqrt_4pi;
             for i in 1..N2 {
-                g[i][lane] = b * scale * f[i][lane];
+                g[i][lane] = dc * b * scale * f[i][lane];
             }
         }
         let max_steps = steps.iter().copied().max().unwrap_or(0);
@@ -371,12 +488,7 @@ impl<'a> ShTables<'a> {
                 }
             }
         }
-        for lane in 0..L {
-            let dc = (f[0][lane] / sqrt_4pi).exp();
-            for i in 0..N2 {
-                out[i][lane] = g[i][lane] * dc;
-            }
-        }
+        *out = g;
     }
 
     /// HYB SH exponential (SHEXP §4.3): DC isolation, scale `f̂` by `2^-s` so it lies in
@@ -391,17 +503,19 @@ impl<'a> ShTables<'a> {
         let (a, b) = self.ol_ab(norm_hat * scale);
         let mut g = [0.0f32; N2_MAX];
         let mut tmp = [0.0f32; N2_MAX];
-        g[0] = a * sqrt_4pi;
+        // The DC factor is folded in before the squarings, scaled like the rest:
+        // exp(f) = (e^{f₀/(√4π 2^s)} OL(f̂/2^s))^{2^s}. Applied after them (SHEXP eq. 20's
+        // separation), the AC part grows like e^{‖f̂‖} while the DC factor shrinks like
+        // e^{f₀/√4π}; with hundreds of dense blockers both leave f32's range (inf·0 = NaN).
+        let dc = (f[0] / sqrt_4pi * scale).exp();
+        g[0] = dc * a * sqrt_4pi;
         for i in 1..n2 {
-            g[i] = b * scale * f[i];
+            g[i] = dc * b * scale * f[i];
         }
         for _ in 0..s {
             self.square(&g[..n2], &mut tmp[..n2]);
             g[..n2].copy_from_slice(&tmp[..n2]);
         }
-        let dc = (f[0] / sqrt_4pi).exp();
-        for i in 0..n2 {
-            out[i] = g[i] * dc;
-        }
+        out[..n2].copy_from_slice(&g[..n2]);
     }
 }

@@ -43,7 +43,7 @@
 
 use crate::gamma::TripleProduct;
 use crate::indirect::averaged_operator;
-use crate::zonal::{apply_window, cap_indicator, cosine_window, irradiance_weight, to_sh};
+use crate::zonal::{cap_indicator, cosine_window, irradiance_weight, to_sh};
 use core::f64::consts::PI;
 use penumbra_math::sh::{ShEval, eval_zonal, zh_rotate, zh_star_scale};
 
@@ -217,11 +217,4 @@ pub fn fibonacci_sphere(count: usize) -> Vec<[f64; 3]> {
             [r * phi.cos(), r * phi.sin(), z]
         })
         .collect()
-}
-
-/// Applies the cosine window to a full SH light vector (helper for env analysis).
-pub fn windowed(light: &[f64], order: usize) -> Vec<f64> {
-    let mut l = light.to_vec();
-    apply_window(&mut l, &cosine_window(order, 2.0 * order as f64));
-    l
 }

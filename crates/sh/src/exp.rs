@@ -6,7 +6,6 @@
 
 use crate::gamma::TripleProduct;
 use crate::ol::OlTable;
-use core::f64::consts::PI;
 use penumbra_math::linalg::SymEigen;
 
 /// `√(4π)`: the DC coefficient of the constant 1.
@@ -104,15 +103,16 @@ pub fn exp_ps_star(t: &TripleProduct, f: &[f64], p: u32) -> Vec<f64> {
         k += 1;
     }
     let mut g = t.product_vec(&h, &odd);
+    // DC folded in before the squarings: (e^{f₀/(√4π 2^s)} g)^{2^s} = e^{f₀/√4π} g^{2^s},
+    // and every intermediate stays within the range of the result (see `exp_hyb`).
+    let dc = (f[0] / SQRT_4PI * scale).exp();
     for i in 0..n {
-        g[i] += even[i];
+        g[i] = (g[i] + even[i]) * dc;
     }
     for _ in 0..s {
         t.product(&g, &g, &mut tmp);
         core::mem::swap(&mut g, &mut tmp);
     }
-    let dc = (f[0] / SQRT_4PI).exp();
-    g.iter_mut().for_each(|x| *x *= dc);
     g
 }
 
@@ -145,11 +145,17 @@ pub fn hyb_squarings(norm_hat: f64, accurate_norm: f64, hyb_target_norm: f64) ->
     (norm_hat / hyb_target_norm).log2().ceil().max(0.0) as u32
 }
 
-/// HYB (SHEXP §4.3): divide `f̂` by `2^s`, apply OL, square `s` times, restore the DC.
+/// HYB (SHEXP §4.3): divide `f` by `2^s`, apply OL, square `s` times.
+///
+/// The DC part is scaled with the rest, i.e. folded in *before* the squarings:
+/// `exp(f) = (exp(f₀/(√4π 2^s))·OL(f̂/2^s))^{2^s}`. Applying `exp(f₀/√4π)` after the
+/// squarings instead (as SHEXP eq. 20 separates it) lets the AC part grow like
+/// `exp(‖f̂‖)` while the DC factor shrinks like `exp(f₀/√4π)`: with hundreds of dense
+/// blockers both leave f32's range and the product is `inf·0 = NaN`.
 pub fn exp_hyb(t: &TripleProduct, f: &[f64], ol: &OlTable) -> Vec<f64> {
     let n = t.len();
-    let mut h = without_dc(f);
-    let s = hyb_squarings(norm(&h), ol.accurate_norm, ol.hyb_target_norm);
+    let mut h = f.to_vec();
+    let s = hyb_squarings(norm(&without_dc(f)), ol.accurate_norm, ol.hyb_target_norm);
     let scale = 0.5f64.powi(s as i32);
     h.iter_mut().for_each(|x| *x *= scale);
     let mut g = exp_ol(&h, ol);
@@ -158,8 +164,6 @@ pub fn exp_hyb(t: &TripleProduct, f: &[f64], ol: &OlTable) -> Vec<f64> {
         t.product(&g, &g, &mut tmp);
         core::mem::swap(&mut g, &mut tmp);
     }
-    let dc = (f[0] / SQRT_4PI).exp();
-    g.iter_mut().for_each(|x| *x *= dc);
     g
 }
 
@@ -212,9 +216,4 @@ pub fn exp_with(t: &TripleProduct, f: &[f64], method: ExpMethod, ol: &OlTable) -
         ExpMethod::Hyb => exp_hyb(t, f, ol),
         ExpMethod::Exact => exp_exact(t, f),
     }
-}
-
-/// The scalar `exp(f₀/√4π)` factor of DC isolation, exposed for tests.
-pub fn dc_factor(f0: f64) -> f64 {
-    (f0 / (4.0 * PI).sqrt()).exp()
 }

@@ -67,38 +67,91 @@ pub fn naive_eps_zonal(order: usize, g_zh: &[f64]) -> f64 {
     (EPS_REL * max).max(EPS_FLOOR)
 }
 
+/// Which reading of eq. 30–32 the eigen log evaluates once clipping engages (they agree
+/// exactly while no eigenvalue is clipped).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LogForm {
+    /// As SHEXP writes it: `log g = Rᵀ q'(D̃) R (g − 1)`, `q'(x) = log x/(x − 1)`,
+    /// `D̃ = max(D, ε)` (eq. 30 with the clipped eigenvalues of eq. 32). Default.
+    #[default]
+    Paper,
+    /// `log(M̃_g)·1 = Rᵀ log(D̃) R · 1`: eq. 30 applied to the clipped matrix `M̃_g`, so a
+    /// clipped eigenvalue contributes exactly `log ε` (the form used before issue #14).
+    Matrix,
+}
+
+impl LogForm {
+    /// Name used in metadata and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            LogForm::Paper => "paper",
+            LogForm::Matrix => "matrix",
+        }
+    }
+}
+
 /// `log(λ)` of an eigenvalue given as `μ = λ − 1`, with clipping at `eps` (SHEXP eq. 32).
 #[inline]
 fn clipped_log(mu: f64, eps: f64) -> f64 {
     if 1.0 + mu >= eps { mu.ln_1p() } else { eps.ln() }
 }
 
-/// Eigen-inversion SH log (SHEXP eq. 30–32) of a general SH vector `g`.
+/// `q'(λ̃) = log λ̃/(λ̃ − 1)` (SHEXP eq. 30) of `λ̃ = max(1 + μ, eps)` (eq. 32), given `μ`.
+/// Unclipped, `λ̃ − 1 = μ` exactly and `q' = ln_1p(μ)/μ` (→ 1 − μ/2 at μ → 0).
+#[inline]
+fn clipped_q_prime(mu: f64, eps: f64) -> f64 {
+    if 1.0 + mu >= eps {
+        if mu.abs() < 1e-8 { 1.0 - 0.5 * mu } else { mu.ln_1p() / mu }
+    } else {
+        eps.ln() / (eps - 1.0)
+    }
+}
+
+/// Applies the clipped eigen log to the eigendecomposition of `M_{g−1} = M_g − I`, given
+/// `g − 1 = −o` (`gm1`), in the chosen [`LogForm`].
+fn apply_log(eig: &SymEigen, gm1: &[f64], eps: f64, form: LogForm, out: &mut [f64]) {
+    match form {
+        LogForm::Paper => eig.apply_fn(gm1, |mu| clipped_q_prime(mu, eps), out),
+        LogForm::Matrix => {
+            let mut one = vec![0.0; gm1.len()];
+            one[0] = SQRT_4PI;
+            eig.apply_fn(&one, |mu| clipped_log(mu, eps), out);
+        }
+    }
+}
+
+/// Eigen-inversion SH log (SHEXP eq. 30–32) of a general SH vector `g`, in the paper's form.
 ///
-/// With `M_g = Rᵀ D R`, eq. 30 gives `log g = Rᵀ q'(D) R (g − 1)`, `q'(x) = log x/(x−1)`.
-/// Because `g − 1 = (M_g − I)·1`, this equals `Rᵀ log(D) R · 1`; with clipped eigenvalues
-/// `D̃ = max(D, ε)` (eq. 32) we evaluate that form, i.e. eq. 30 applied to `M̃_g`, so that
-/// a clipped eigenvalue contributes exactly `log ε`. We decompose `M_g − I = M_{g−1}`
-/// instead of `M_g` so that eigenvalues near 1 (tiny blockers) keep full relative
-/// precision in `log(1 + μ) = ln_1p(μ)`.
+/// With `M_g = Rᵀ D R`, eq. 30 gives `log g = Rᵀ q'(D) R (g − 1)`, `q'(x) = log x/(x−1)`,
+/// evaluated with the clipped eigenvalues `D̃ = max(D, ε)` (eq. 32). We decompose
+/// `M_g − I = M_{g−1}` instead of `M_g` so that eigenvalues near 1 (tiny blockers) keep
+/// full relative precision in `log(1 + μ)/μ`. [`log_eigen_with`] selects the form.
 pub fn log_eigen(t: &TripleProduct, g: &[f64], eps_rel: f64) -> Vec<f64> {
+    log_eigen_with(t, g, eps_rel, LogForm::Paper)
+}
+
+/// [`log_eigen`] in a chosen [`LogForm`].
+pub fn log_eigen_with(t: &TripleProduct, g: &[f64], eps_rel: f64, form: LogForm) -> Vec<f64> {
     let mut occ: Vec<f64> = g.iter().map(|v| -v).collect();
     occ[0] += SQRT_4PI;
-    log_eigen_occlusion(t, &occ, eps_rel)
+    log_eigen_occlusion_with(t, &occ, eps_rel, form)
 }
 
 /// [`log_eigen`] of `g = 1 − o` given the occlusion `o` directly: `M_{g−1} = −M_o`, so a
 /// tiny blocker's log keeps full relative precision (no `1 − o` rounding).
 pub fn log_eigen_occlusion(t: &TripleProduct, occlusion: &[f64], eps_rel: f64) -> Vec<f64> {
+    log_eigen_occlusion_with(t, occlusion, eps_rel, LogForm::Paper)
+}
+
+/// [`log_eigen_occlusion`] in a chosen [`LogForm`].
+pub fn log_eigen_occlusion_with(t: &TripleProduct, occlusion: &[f64], eps_rel: f64, form: LogForm) -> Vec<f64> {
     let n = t.len();
     let gm1: Vec<f64> = occlusion.iter().map(|v| -v).collect();
     let m = t.product_matrix(&gm1);
     let eig = SymEigen::new(&m, n);
     let eps = (eps_rel * (1.0 + eig.max_value())).max(EPS_FLOOR);
-    let mut one = vec![0.0; n];
-    one[0] = SQRT_4PI;
     let mut f = vec![0.0; n];
-    eig.apply_fn(&one, |mu| clipped_log(mu, eps), &mut f);
+    apply_log(&eig, &gm1, eps, form, &mut f);
     f
 }
 
@@ -107,7 +160,7 @@ pub fn log_eigen_occlusion(t: &TripleProduct, occlusion: &[f64], eps_rel: f64) -
 /// The product matrix of a zonal function preserves the SH index `m`, so `M_g` is block
 /// diagonal with one block per `m` of size `n − |m|` (blocks `m` and `−m` are equal). The
 /// clip needs the largest eigenvalue over all blocks; the log itself only needs the `m = 0`
-/// block, because `1` lives there. Order 8: blocks of size ≤ 8 instead of one 64×64.
+/// block, because `1` and `g − 1` live there. Order 8: blocks of size ≤ 8 instead of one 64×64.
 pub fn log_eigen_zonal(t: &TripleProduct, g_zh: &[f64], eps_rel: f64) -> Vec<f64> {
     let mut occ: Vec<f64> = g_zh.iter().map(|v| -v).collect();
     occ[0] += SQRT_4PI;
@@ -117,6 +170,11 @@ pub fn log_eigen_zonal(t: &TripleProduct, g_zh: &[f64], eps_rel: f64) -> Vec<f64
 /// [`log_eigen_zonal`] given the zonal occlusion `o = 1 − g` directly (full relative
 /// precision for tiny blockers; the tables pass [`crate::zonal::cap_indicator`]).
 pub fn log_eigen_zonal_occlusion(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64) -> Vec<f64> {
+    log_eigen_zonal_occlusion_with(t, occ_zh, eps_rel, LogForm::Paper)
+}
+
+/// [`log_eigen_zonal_occlusion`] in a chosen [`LogForm`].
+pub fn log_eigen_zonal_occlusion_with(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64, form: LogForm) -> Vec<f64> {
     let n = t.order();
     let gm1: Vec<f64> = occ_zh.iter().map(|v| -v).collect();
     // blocks[m] is (n−m)×(n−m), rows/cols indexed by l − m.
@@ -138,9 +196,7 @@ pub fn log_eigen_zonal_occlusion(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64
     let eigs: Vec<SymEigen> = blocks.iter().enumerate().map(|(m, b)| SymEigen::new(b, n - m)).collect();
     let mu_max = eigs.iter().map(|e| e.max_value()).fold(f64::MIN, f64::max);
     let eps = (eps_rel * (1.0 + mu_max)).max(EPS_FLOOR);
-    let mut one = vec![0.0; n];
-    one[0] = SQRT_4PI;
     let mut f = vec![0.0; n];
-    eigs[0].apply_fn(&one, |mu| clipped_log(mu, eps), &mut f);
+    apply_log(&eigs[0], &gm1, eps, form, &mut f);
     f
 }

@@ -16,7 +16,7 @@ use crate::exp::{exp_exact_zonal, norm};
 use crate::gamma::TripleProduct;
 use crate::indirect::{averaged_operator, exact_operator, paper_fit_rel_sq_error, refit};
 use crate::local_light::{LobeFit, fit_lobe, local_light};
-use crate::log::{EPS_REL, log_eigen_zonal, log_eigen_zonal_occlusion, log_naive_zonal, naive_eps_zonal};
+use crate::log::{EPS_REL, LogForm, log_eigen_zonal, log_eigen_zonal_occlusion_with, log_naive_zonal, naive_eps_zonal};
 use crate::ohlsh::quadratic_to_ohlsh;
 use crate::ol::{OlTable, cap_accurate_norm, cap_ol_sample};
 use crate::zonal::{cap_indicator, cap_visibility, cosine_window};
@@ -61,6 +61,20 @@ pub enum TablesError {
         /// Given.
         got: usize,
     },
+    /// The smooth clamp at `α = 1/η` does not fit on the α grid.
+    #[error(
+        "theta sample count {k} cannot represent the smooth clamp at alpha = 1/eta = {alpha_c:.4}: its 4 entries around round(alpha (K-1)) = {j} need j >= 2 (use --theta-samples >= {min_k})"
+    )]
+    ClampNotRepresentable {
+        /// K.
+        k: usize,
+        /// 1/η.
+        alpha_c: f64,
+        /// round(α_c (K − 1)).
+        j: i64,
+        /// Smallest K that works.
+        min_k: usize,
+    },
     /// Building the asset failed.
     #[error("building the SHTB asset: {0}")]
     Asset(String),
@@ -88,12 +102,20 @@ pub struct TablesParams {
     pub shading_tolerance: f64,
     /// Optional environment lighting.
     pub env: Option<EnvLighting>,
+    /// Form of the eigen log once clipping engages (SHEXP eq. 30–32; default: as written).
+    pub log_form: LogForm,
 }
 
 impl TablesParams {
     /// Defaults for order `order`.
     pub fn new(order: usize) -> Self {
-        Self { order, theta_samples: DEFAULT_THETA_SAMPLES, shading_tolerance: DEFAULT_SHADING_TOLERANCE, env: None }
+        Self {
+            order,
+            theta_samples: DEFAULT_THETA_SAMPLES,
+            shading_tolerance: DEFAULT_SHADING_TOLERANCE,
+            env: None,
+            log_form: LogForm::Paper,
+        }
     }
 
     /// Checks ranges.
@@ -237,11 +259,18 @@ pub struct TablesBake {
 /// smaller half angles are forced to 0"). With `j = round(α_c (K−1))`, entries
 /// `j−2, j−1, j, j+1` get `s(1/5), s(2/5), s(3/5), s(4/5)` with `s(t) = 3t² − 2t³`
 /// (0.104, 0.352, 0.648, 0.896), entries below get 0 and entries above 1.
+///
+/// Finer grids (K > 256) would shrink that ramp to a step: there the ramp keeps the width it
+/// has at K = 256 (5/255 in α), `t = (α·255 − (j − 3))/5` with `j = round(α_c·255)`, so its
+/// entries follow the same smoothstep on a finer grid. For K ≤ 256 the weights are IBPA's
+/// four entries exactly. [`clamp_fits`] says whether the grid can hold the ramp at all.
 pub fn smooth_clamp_weights(k: usize, alpha_c: f64) -> Vec<f64> {
-    let j = (alpha_c * (k - 1) as f64).round() as i64;
-    (0..k as i64)
+    let cells = clamp_cells(k);
+    let j = (alpha_c * cells).round() as i64;
+    (0..k)
         .map(|i| {
-            let t = (i - (j - 3)) as f64 / 5.0;
+            let x = i as f64 / (k - 1) as f64 * cells;
+            let t = (x - (j - 3) as f64) / 5.0;
             if t <= 0.0 {
                 0.0
             } else if t >= 1.0 {
@@ -251,6 +280,23 @@ pub fn smooth_clamp_weights(k: usize, alpha_c: f64) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+/// The α grid unit of the smooth clamp's ramp: `K − 1` cells up to K = 256, then 255.
+fn clamp_cells(k: usize) -> f64 {
+    ((k - 1) as f64).min(255.0)
+}
+
+/// Checks that the smooth clamp at `alpha_c` lies on the grid: `j = round(α_c·cells) ≥ 2`,
+/// so that its four ramp entries `j − 2 … j + 1` exist (at K = 16 and η ≈ 28, `j = 1`:
+/// 1/η is not representable and the ramp would start below α = 0).
+pub fn clamp_fits(k: usize, alpha_c: f64) -> Result<(), TablesError> {
+    let j = (alpha_c * clamp_cells(k)).round() as i64;
+    if j >= 2 {
+        return Ok(());
+    }
+    let min_k = (1.5 / alpha_c).ceil() as usize + 1;
+    Err(TablesError::ClampNotRepresentable { k, alpha_c, j, min_k })
 }
 
 fn starred(zh: &[f64]) -> Vec<f64> {
@@ -275,7 +321,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         .par_iter()
         .map(|&th| {
             let g = cap_visibility(n, th);
-            let f = log_eigen_zonal_occlusion(&gamma, &cap_indicator(n, th), EPS_REL);
+            let f = log_eigen_zonal_occlusion_with(&gamma, &cap_indicator(n, th), EPS_REL, params.log_form);
             let fnv = log_naive_zonal(n, &g, naive_eps_zonal(n, &g));
             (g, f, fnv)
         })
@@ -309,6 +355,8 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
     };
 
     progress.update("proxy tables", 4, total_stages);
+    clamp_fits(k, 1.0 / eta_sh.eta)?;
+    clamp_fits(k, 1.0 / eta_ind.eta)?;
     let alphas: Vec<f64> = (0..k).map(|i| i as f64 / (k - 1) as f64).collect();
     let w_sh = smooth_clamp_weights(k, 1.0 / eta_sh.eta);
     let w_ind = smooth_clamp_weights(k, 1.0 / eta_ind.eta);
@@ -317,7 +365,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         .map(|&a| {
             let th = a.clamp(0.0, 1.0).asin();
             let v = starred(&cap_indicator(n, th));
-            let lo = starred(&log_eigen_zonal_occlusion(&gamma, &cap_indicator(n, th), EPS_REL));
+            let lo = starred(&log_eigen_zonal_occlusion_with(&gamma, &cap_indicator(n, th), EPS_REL, params.log_form));
             (v, lo)
         })
         .collect();

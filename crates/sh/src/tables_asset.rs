@@ -55,6 +55,7 @@ pub fn meta_json(b: &TablesBake, cache_key: Option<&str>) -> serde_json::Value {
             "shading_tolerance": p.shading_tolerance,
             "log_eps_rel": crate::log::EPS_REL,
             "log_eps_floor": crate::log::EPS_FLOOR,
+            "log_form": p.log_form.name(),
             "naive_log_eps": "0.02 * max_s g~(s)",
             "indirect_order": INDIRECT_ORDER,
             "local_light": [LOCAL_LIGHT_THETA, LOCAL_LIGHT_PHI],

@@ -139,6 +139,7 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
                     accumulate_tables: None,
                     seed: 1,
                     image: None,
+                    max_nrmse: None,
                     json: false,
                 };
                 let r = evaluate(&v)?;

@@ -32,6 +32,7 @@ pub fn cache_key(params: &TablesParams) -> String {
         "theta_samples": params.theta_samples,
         "shading_tolerance": params.shading_tolerance,
         "env": params.env.as_ref().map(|e| &e.content_hash),
+        "log_form": params.log_form.name(),
     });
     blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
 }
@@ -66,7 +67,11 @@ pub fn bake_to(params: &TablesParams, output: &Path, mode: ProgressMode) -> Resu
 /// Runs `penumbra tables`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &TablesArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
-    let p = params(a.order, a.theta_samples, a.shading_tolerance, a.env.as_deref())?;
+    let mut p = params(a.order, a.theta_samples, a.shading_tolerance, a.env.as_deref())?;
+    p.log_form = match a.log_form {
+        crate::args::LogFormArg::Paper => penumbra_sh::log::LogForm::Paper,
+        crate::args::LogFormArg::Matrix => penumbra_sh::log::LogForm::Matrix,
+    };
     let out = bake_to(&p, &a.output, mode)?;
     let mut v = out.metrics.clone();
     if let Some(obj) = v.as_object_mut() {

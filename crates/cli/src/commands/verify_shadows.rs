@@ -7,9 +7,17 @@
 //!   windowed) exactly as the runtime's lighting, so it measures visibility error;
 //! - `nrmse_vs_mesh_full`: the same against the full-frequency environment map;
 //! - `nrmse_vs_spheres`: runtime vs the spheres themselves ray-traced (after the same
-//!   self-shadow rules) under the band-limited light: SH / log / exponentiation error only;
-//! - `nrmse_log_vs_product`: runtime (log space) vs product-space accumulation (SHEXP eq. 6)
-//!   with the same tables, relative to the product result's range.
+//!   self-shadow rules) under the band-limited light: SH truncation, log/exponentiation,
+//!   table interpolation and, with `--hierarchy`, the cut and its ratio vectors — everything
+//!   but the spheres' fit to the mesh;
+//! - `nrmse_log_vs_product`: runtime (log space) vs product-space accumulation (SHEXP eq. 6),
+//!   relative to the product result's range. The product path reads the tables' θ-grid
+//!   `cap_visibility`, the log path the α-grid `proxy_log_occlusion` (and `cap_log` near
+//!   contact): same bake, different tables.
+//! - `blockers_per_receiver`: blockers (leaves or cut nodes) handed to the runtime per
+//!   receiver, before the self-shadow rules drop any.
+//! - `ns_per_receiver`: the batched path, one thread; with `--accumulate-tables` the scalar
+//!   one-receiver path (`irradiance_accumulated_by`).
 
 use crate::args::{EnvRotateArg, UpArg};
 use crate::commands::print_json;
@@ -36,7 +44,14 @@ pub enum ReceiverKind {
     Plane,
     /// The mesh's own vertices (self-shadowing), with area-weighted vertex normals.
     Mesh,
+    /// Far field: one plane of `--resolution`² receivers under the object at each distance of
+    /// [`FAR_DIAGONALS`] object diagonals below its lowest point, each `±(2R + D/2)` wide
+    /// (`R` half the diagonal); reported per distance as `nrmse_by_distance`.
+    Far,
 }
+
+/// Distances of the `--receivers far` planes below the object, in object diagonals.
+pub const FAR_DIAGONALS: [f64; 7] = [0.5, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0];
 
 /// Exponential of the runtime.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -112,6 +127,9 @@ pub struct VerifyShadowsArgs {
     /// Write a PNG (plane receivers): runtime | mesh truth | difference, seen from above.
     #[arg(long, value_name = "FILE")]
     pub image: Option<PathBuf>,
+    /// Quality gate: exit 1 when `nrmse_vs_mesh` exceeds it (the report is still printed).
+    #[arg(long, value_name = "NRMSE")]
+    pub max_nrmse: Option<f64>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -198,6 +216,29 @@ fn receivers(scene: &Scene, a: &VerifyShadowsArgs) -> Result<Vec<Receiver>, CliE
             }
             Ok(out)
         }
+        ReceiverKind::Far => {
+            let c = b.center();
+            let diag = b.diagonal();
+            let r = 0.5 * diag;
+            let res = a.resolution as usize;
+            let (u, v) = ((up + 1) % 3, (up + 2) % 3);
+            let mut n = [0.0; 3];
+            n[up] = 1.0;
+            let mut out = Vec::with_capacity(FAR_DIAGONALS.len() * res * res);
+            for &dd in &FAR_DIAGONALS {
+                let half = 2.0 * r + 0.5 * dd * diag;
+                for j in 0..res {
+                    for i in 0..res {
+                        let mut p = [0.0; 3];
+                        p[up] = b.min[up] - dd * diag;
+                        p[u] = c[u] - half + 2.0 * half * (i as f64 + 0.5) / res as f64;
+                        p[v] = c[v] - half + 2.0 * half * (j as f64 + 0.5) / res as f64;
+                        out.push((p, n));
+                    }
+                }
+            }
+            Ok(out)
+        }
         ReceiverKind::Mesh => {
             let nv = mesh.positions.len();
             let mut normals = vec![[0.0f64; 3]; nv];
@@ -227,13 +268,16 @@ fn receivers(scene: &Scene, a: &VerifyShadowsArgs) -> Result<Vec<Receiver>, CliE
 fn clusters(recv: &[Receiver], a: &VerifyShadowsArgs) -> Vec<Vec<usize>> {
     let cs = a.cluster as usize;
     match a.receivers {
-        ReceiverKind::Plane => {
+        ReceiverKind::Plane | ReceiverKind::Far => {
             let res = a.resolution as usize;
             let tiles = res.div_ceil(cs);
-            let mut out = vec![Vec::new(); tiles * tiles];
-            for j in 0..res {
-                for i in 0..res {
-                    out[(j / cs) * tiles + i / cs].push(j * res + i);
+            let planes = recv.len() / (res * res);
+            let mut out = vec![Vec::new(); planes * tiles * tiles];
+            for k in 0..planes {
+                for j in 0..res {
+                    for i in 0..res {
+                        out[k * tiles * tiles + (j / cs) * tiles + i / cs].push(k * res * res + j * res + i);
+                    }
                 }
             }
             out
@@ -289,6 +333,11 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             "--theta-max {} is out of range (allowed: 0 < θ < 90 degrees)",
             a.theta_max
         )));
+    }
+    if let Some(m) = a.max_nrmse {
+        if !(m > 0.0 && m.is_finite()) {
+            return Err(CliError::input(anyhow!("--max-nrmse {m} is out of range (allowed: a finite value > 0)")));
+        }
     }
     let (scene, _) = penumbra_geometry::load_mesh(&a.mesh).map_err(CliError::input)?;
     let env = match a.env.to_str().and_then(|s| s.strip_prefix("builtin:")) {
@@ -477,7 +526,28 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             / n_recv as f64;
     let max_abs =
         runtime.iter().zip(&mesh_truth).flat_map(|(x, r)| (0..3).map(move |c| (x[c] - r[c]).abs())).fold(0.0, f64::max);
+    let nrmse_by_distance: Option<Vec<Value>> = (a.receivers == ReceiverKind::Far).then(|| {
+        let per = a.resolution as usize * a.resolution as usize;
+        FAR_DIAGONALS
+            .iter()
+            .enumerate()
+            .map(|(k, &dd)| {
+                let r = k * per..(k + 1) * per;
+                json!({
+                    "diagonals": dd,
+                    "nrmse_vs_spheres": nrmse(&runtime[r.clone()], &sphere_truth[r.clone()]),
+                    "nrmse_vs_mesh": nrmse(&runtime[r.clone()], &mesh_truth[r.clone()]),
+                    "nrmse_spheres_vs_mesh": nrmse(&sphere_truth[r.clone()], &mesh_truth[r.clone()]),
+                    "shadow_depth": {
+                        "mesh": shadow_depth(&mesh_truth[r.clone()]),
+                        "runtime": shadow_depth(&runtime[r]),
+                    },
+                })
+            })
+            .collect()
+    });
     let json = json!({
+        "nrmse_by_distance": nrmse_by_distance,
         "nrmse_vs_mesh": nrmse(&runtime, &mesh_truth),
         "nrmse_vs_mesh_full": nrmse(&runtime, &mesh_full),
         "nrmse_vs_spheres": nrmse(&runtime, &sphere_truth),
@@ -492,7 +562,7 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
         "max_abs_error_vs_mesh": max_abs,
         "unshadowed_irradiance_mean": unshadowed_mean,
         "receivers": n_recv,
-        "receiver_kind": match a.receivers { ReceiverKind::Plane => "plane", ReceiverKind::Mesh => "mesh" },
+        "receiver_kind": match a.receivers { ReceiverKind::Plane => "plane", ReceiverKind::Mesh => "mesh", ReceiverKind::Far => "far" },
         "reference_rays_per_receiver": k * k,
         "ns_per_receiver": ns_per_receiver,
         "blockers_per_receiver": blockers_per_receiver,
@@ -508,6 +578,14 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
         "nrmse_definition": "RMSE over receivers and RGB / (max - min of the reference over receivers and RGB)",
     });
     Ok(ShadowReport { json, runtime, mesh_truth })
+}
+
+/// `(max − min)/max` of the mean of RGB over receivers: how deep the shadow on a plane is.
+fn shadow_depth(v: &[[f64; 3]]) -> f64 {
+    let m: Vec<f64> = v.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+    let hi = m.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lo = m.iter().copied().fold(f64::INFINITY, f64::min);
+    if hi > 0.0 { (hi - lo) / hi } else { f64::NAN }
 }
 
 /// Runtime | mesh truth | difference (false colour, ±10 % of the truth's range) for plane
@@ -563,6 +641,14 @@ pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
         o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
         o.insert("image".into(), json!(a.image.as_ref().map(|p| p.display().to_string())));
     }
+    let gate_failed = a.max_nrmse.is_some_and(|m| {
+        let e = v["nrmse_vs_mesh"].as_f64().unwrap_or(f64::NAN);
+        e.is_nan() || e > m
+    });
+    if let Some(o) = v.as_object_mut() {
+        o.insert("max_nrmse".into(), json!(a.max_nrmse));
+        o.insert("gate_passed".into(), json!(a.max_nrmse.map(|_| !gate_failed)));
+    }
     if a.json {
         print_json(&v);
     } else {
@@ -581,6 +667,14 @@ pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
             f("ns_per_receiver"),
             f("blockers_per_receiver"),
         );
+    }
+    if gate_failed {
+        eprintln!(
+            "quality gate failed: nrmse_vs_mesh {} > --max-nrmse {}",
+            v["nrmse_vs_mesh"],
+            a.max_nrmse.unwrap_or(f64::NAN)
+        );
+        return Ok(ExitCode::QualityGate);
     }
     Ok(ExitCode::Ok)
 }

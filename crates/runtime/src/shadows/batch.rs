@@ -146,11 +146,13 @@ impl ShadowEvaluator<'_> {
         f: &mut [V; N2],
     ) {
         *f = [[0.0; LANES]; N2];
-        let alpha_cut = self.tables.alpha_cut();
         let basis = self.tables.basis();
         let rules = self.options.self_shadow_rules;
         for i in 0..count {
             let (s0, w) = get(i);
+            if !s0.is_valid() {
+                continue; // as the scalar path: invalid blockers are ignored
+            }
             let (center, radius, mut keep) = if rules {
                 replace_lanes(s0, rc)
             } else {
@@ -169,7 +171,7 @@ impl ShadowEvaluator<'_> {
                 let d = d2.sqrt();
                 let a = (radius[lane] / d).min(1.0);
                 // `d2 > 0` is false for NaN too
-                let ok = keep[lane] && d2 > 0.0 && radius[lane] > 0.0 && a > alpha_cut;
+                let ok = keep[lane] && d2 > 0.0 && radius[lane] > 0.0;
                 keep[lane] = ok;
                 let inv = 1.0 / d;
                 // a dropped lane evaluates the basis at +Z with zero weights
@@ -184,7 +186,7 @@ impl ShadowEvaluator<'_> {
             let mut zh = [[0.0f32; LANES]; N];
             for lane in 0..LANES {
                 if keep[lane] {
-                    let mut z = self.tables.proxy_log_occlusion_n::<N>(alpha[lane]);
+                    let mut z = self.tables.proxy_log_n::<N>(alpha[lane]);
                     if let Some(w) = w {
                         for l in 0..N {
                             z[l] *= w[l];
