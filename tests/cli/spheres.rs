@@ -196,7 +196,7 @@ fn bake_config_spheres_stage() {
     let cfg = dir.path().join("scene.toml");
     std::fs::write(
         &cfg,
-        "output_dir = \"out\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\nmethod = \"octree\"\noutput = \"oct.sphr\"\n",
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\nmethod = \"octree\"\noutput = \"oct.sphr\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\npolish = true\noutput = \"pol.sphr\"\n",
     )
     .unwrap();
     let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
@@ -223,6 +223,18 @@ fn bake_config_spheres_stage() {
     let a = AssetFile::open(&standalone).unwrap();
     let b = AssetFile::open(dir.path().join("out/c.sphr")).unwrap();
     assert_eq!(a.asset().section("spheres").unwrap().bytes(), b.asset().section("spheres").unwrap().bytes());
+    // `polish = true` is the command's --polish (and not the unpolished fit)
+    let polished = dir.path().join("p.sphr");
+    let (code, _, stderr) = run(penumbra()
+        .arg("spheres")
+        .arg(dir.path().join("c.obj"))
+        .args(["--count", "6", "--grid", "16", "--iterations", "4", "--polish", "-o"])
+        .arg(&polished));
+    assert_eq!(code, 0, "{stderr}");
+    let p = AssetFile::open(&polished).unwrap();
+    let q = AssetFile::open(dir.path().join("out/pol.sphr")).unwrap();
+    assert_eq!(p.asset().section("spheres").unwrap().bytes(), q.asset().section("spheres").unwrap().bytes());
+    assert_ne!(p.asset().section("spheres").unwrap().bytes(), a.asset().section("spheres").unwrap().bytes());
 }
 
 #[test]

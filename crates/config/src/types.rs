@@ -115,6 +115,10 @@ pub struct SpheresStage {
     /// Compute skin weights for a skinned glTF (default false).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skin: Option<bool>,
+    /// Finish with the union polish (`penumbra spheres --polish`: a tighter union at about
+    /// twice the CPU time, docs/spheres.md; default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polish: Option<bool>,
     /// Fit only the glTF node(s) with this name.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh_name: Option<String>,

@@ -147,6 +147,7 @@ fn run_spheres(
     params.metrics.seed = params.seed;
     params.hierarchy = sp.hierarchy.unwrap_or(false);
     params.skin = sp.skin.unwrap_or(false);
+    params.polish = sp.polish.unwrap_or(false);
     let job = super::spheres::SpheresJob {
         mesh: mesh.clone(),
         mesh_name: sp.mesh_name.clone(),
