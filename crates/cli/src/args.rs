@@ -274,7 +274,7 @@ pub struct FivArgs {
 #[derive(Debug, Subcommand)]
 pub enum FivCommand {
     /// Join the shards of one bake (`--shard K/N`, any order) into the bytes a single run writes.
-    Merge(FivMergeArgs),
+    Merge(ShardMergeArgs),
     /// Export a table for the GPU: a KTX2 RGBA32F 3D texture (docs/fiv.md, "GPU export").
     Export(FivExportArgs),
 }
@@ -369,7 +369,7 @@ pub enum UpArg {
 
 /// `penumbra fiv merge`.
 #[derive(Debug, Args)]
-pub struct FivMergeArgs {
+pub struct ShardMergeArgs {
     /// Shard assets (every K of one bake's K/N, any order).
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,

@@ -721,8 +721,8 @@ fn clutter_texels(
 ) -> Vec<Result<ClutterRays, usize>> {
     let nd = dirs.len() as f64;
     let len = idx.len();
-    // (block, len × n_block weights)
-    let mut wts: Vec<(usize, Mat<f64>)> = Vec::new();
+    // (block, len × n_block weights, which of the texels reached it)
+    let mut wts: Vec<(usize, Mat<f64>, Vec<bool>)> = Vec::new();
     let mut cc: Vec<Vec<(usize, f64)>> = vec![Vec::new(); len];
     let mut inside = vec![true; len];
     let mut segs = Vec::with_capacity(8);
@@ -745,14 +745,15 @@ fn clutter_texels(
                 RayHit::Wall(y, g, q) => {
                     let blk = &sc.geo.level.blocks[y];
                     let sh = &sc.dict.shapes[blk.shape];
-                    let slot = match wts.iter().position(|(s, _)| *s == y) {
+                    let slot = match wts.iter().position(|(s, _, _)| *s == y) {
                         Some(s) => s,
                         None => {
-                            wts.push((y, Mat::zeros(len, sh.texels.len())));
+                            wts.push((y, Mat::zeros(len, sh.texels.len()), vec![false; len]));
                             wts.len() - 1
                         }
                     };
                     let (u, v) = face_uv(g, blk.to_local(q));
+                    wts[slot].2[r] = true;
                     let w = &mut wts[slot].1;
                     for (t, bw) in sh.texels.bilinear(g, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
                         w[(r, t)] += bw;
@@ -771,7 +772,7 @@ fn clutter_texels(
     }
     let mut out: Vec<Result<ClutterRays, usize>> =
         idx.iter().zip(&inside).map(|(&i, &ok)| if ok { Ok((Vec::new(), Vec::new())) } else { Err(i) }).collect();
-    for (y, w) in wts {
+    for (y, w, reached) in wts {
         let sh = &sc.dict.shapes[sc.geo.level.blocks[y].shape];
         let k = sh.k_b;
         let l = faer::MatRef::from_row_major_slice(&sh.l_imp, sh.texels.len(), k);
@@ -779,7 +780,7 @@ fn clutter_texels(
         for (r, o) in out.iter_mut().enumerate() {
             if let Ok((rows, _)) = o {
                 // a texel no ray of this block reached has a zero row: leave it out
-                if (0..w.ncols()).any(|t| w[(r, t)] != 0.0) {
+                if reached[r] {
                     rows.push((y, (0..k).map(|c2| rho / nd * c[(r, c2)]).collect()));
                 }
             }

@@ -341,21 +341,7 @@ impl DrtSceneArgs {
 #[derive(Debug, clap::Subcommand)]
 pub enum DrtCommand {
     /// Join the shards of one bake (`--shard K/N`, any order) into the bytes a single run writes.
-    Merge(DrtMergeArgs),
-}
-
-/// `penumbra drt merge`.
-#[derive(Debug, Args)]
-pub struct DrtMergeArgs {
-    /// Shard assets (every K of one bake's K/N, any order).
-    #[arg(required = true)]
-    pub shards: Vec<PathBuf>,
-    /// Output asset (.drto).
-    #[arg(short = 'o', long)]
-    pub output: PathBuf,
-    /// One JSON object on stdout.
-    #[arg(long)]
-    pub json: bool,
+    Merge(crate::args::ShardMergeArgs),
 }
 
 /// The content hash of everything that changes a DRT bake's bytes: tool version, dictionary
@@ -461,7 +447,7 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
 
 /// Runs `penumbra drt merge`.
 #[allow(clippy::print_stderr)]
-fn run_merge(a: &DrtMergeArgs) -> Result<ExitCode, CliError> {
+fn run_merge(a: &crate::args::ShardMergeArgs) -> Result<ExitCode, CliError> {
     let start = Instant::now();
     let files: Vec<AssetFile> = a
         .shards

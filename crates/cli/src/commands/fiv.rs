@@ -1,6 +1,6 @@
 //! `penumbra fiv`: the FIV occlusion bake (FIV §4.2), and `penumbra fiv merge` for shards.
 
-use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivExportArgs, FivMergeArgs, UpArg};
+use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivExportArgs, ShardMergeArgs, UpArg};
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::{ensure_parent, hash_file};
@@ -477,7 +477,7 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     Ok(ExitCode::Ok)
 }
 
-fn run_merge(a: &FivMergeArgs) -> Result<ExitCode, CliError> {
+fn run_merge(a: &ShardMergeArgs) -> Result<ExitCode, CliError> {
     let start = Instant::now();
     let files: Vec<AssetFile> = a
         .shards

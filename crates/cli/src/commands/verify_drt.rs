@@ -14,7 +14,7 @@ use penumbra_asset::{AssetFile, OwnedAsset};
 use penumbra_math::progress::Progress;
 use penumbra_runtime::drt::{DrtOperators, DrtRuntime, Paths};
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
-use penumbra_transport::drt::{DrtParams, KcMode, Scene};
+use penumbra_transport::drt::Scene;
 use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
 use penumbra_transport::gather::sh9;
 use penumbra_transport::level::rotate_y;
@@ -102,26 +102,6 @@ fn lights(a: &VerifyDrtArgs, sc: &DrtScene, geo: &LevelGeometry<'_>) -> Result<V
         (Some(p), _) => load_point_lights(p, geo),
         (None, Some(l)) => Ok(l.clone()),
         (None, None) => Ok(default_lights(&sc.level)),
-    }
-}
-
-/// Parameters recorded in a DRTO's meta.
-fn params_of(meta: &Value) -> DrtParams {
-    let p = &meta["params"];
-    let u = |k: &str, d: usize| p[k].as_u64().map_or(d, |v| v as usize);
-    DrtParams {
-        rays: u("rays", 1024),
-        clutter_rays: u("clutter_rays", u("rays", 1024)),
-        neighborhood: u("neighborhood", 1),
-        k_c: u("k_c", 5),
-        k_dc: u("k_dc", 32),
-        clutter_to_clutter: p["clutter_to_clutter"].as_bool().unwrap_or(true),
-        kc_mode: p["kc_mode"].as_str().and_then(KcMode::parse).unwrap_or(KcMode::Svd),
-        inpaint: p["inpaint"].as_bool().unwrap_or(true),
-        clutter_res: u("clutter_res", 16),
-        clutter_basis_res: u("clutter_basis_res", 1),
-        seed: p["seed"].as_u64().unwrap_or(0),
-        half: p["half"].as_bool().unwrap_or(true),
     }
 }
 
@@ -223,7 +203,7 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
                     p.display()
                 )));
             }
-            let params = params_of(&meta);
+            let params = penumbra_transport::drt_asset::params_of(&meta["params"]);
             (bytes, params)
         }
         None => {
