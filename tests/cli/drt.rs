@@ -236,3 +236,109 @@ fn verify_drt_measures_inpainting_at_bilinear_reads_next_to_clutter() {
     );
     assert!(with < without, "inpainted {with} vs without {without}");
 }
+
+/// A unit cube as glTF with split vertices per face and `TEXCOORD_1` laying each face on an
+/// inset cell of a 3 × 2 grid (gap `g` of a cell), POSITION and TEXCOORD_1 in one buffer.
+fn write_lightmapped_cube(dir: &Path, name: &str, g: f32) {
+    let faces: [([f32; 3], [f32; 3], [f32; 3]); 6] = [
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]),
+        ([1.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]),
+        ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+        ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
+        ([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+    ];
+    let (mut pos, mut uv, mut idx) = (Vec::new(), Vec::new(), Vec::new());
+    for (f, (o, eu, ev)) in faces.iter().enumerate() {
+        let (c, r) = ((f % 3) as f32, (f / 3) as f32);
+        let b = (pos.len() / 3) as u16;
+        for (a, bb) in [(0.0f32, 0.0f32), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+            pos.extend((0..3).map(|k| o[k] + a * eu[k] + bb * ev[k]));
+            uv.push((c + g + a * (1.0 - 2.0 * g)) / 3.0);
+            uv.push((r + g + bb * (1.0 - 2.0 * g)) / 2.0);
+        }
+        idx.extend([b, b + 1, b + 2, b, b + 2, b + 3]);
+    }
+    let mut bin: Vec<u8> = Vec::new();
+    bin.extend(pos.iter().flat_map(|x| x.to_le_bytes()));
+    bin.extend(uv.iter().flat_map(|x| x.to_le_bytes()));
+    bin.extend(idx.iter().flat_map(|x| x.to_le_bytes()));
+    std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
+    let (pl, ul, il) = (pos.len() * 4, uv.len() * 4, idx.len() * 2);
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "cube"}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_1": 1}, "indices": 2}]}],
+        "buffers": [{"uri": format!("{name}.bin"), "byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": pl},
+            {"buffer": 0, "byteOffset": pl, "byteLength": ul},
+            {"buffer": 0, "byteOffset": pl + ul, "byteLength": il}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 24, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 1.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 24, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 36, "type": "SCALAR"}
+        ]
+    });
+    std::fs::write(dir.join(format!("{name}.gltf")), json.to_string()).unwrap();
+}
+
+#[test]
+fn gltf_lightmap_uvs_are_the_clutter_charts() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let out = dir.path().join("x.drto");
+    let level = dir.path().join("room.toml");
+    std::fs::write(&level, "[[block]]\nshape = \"closed\"\ntranslation = [0.5, 0.5, 0.5]\n").unwrap();
+    // a gap of 0.04 keeps every cell centre off the rectangles' f32 edges
+    write_lightmapped_cube(dir.path(), "cube", 0.04);
+    let bake = |extra: &str| {
+        let c = dir.path().join("c.toml");
+        let src = format!("[[clutter]]\nmesh = \"cube.gltf\"\ntranslate = [0.4, 0.0, 0.4]\nscale = 0.2\n{extra}");
+        std::fs::write(&c, src).unwrap();
+        drt_json(&["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap()], &d, &out)
+    };
+    // cell centres of a 30² atlas inside each face's inset rectangle, counted here
+    let n = 30;
+    let mut want = 0;
+    for f in 0..6 {
+        let (c, r) = ((f % 3) as f64, (f / 3) as f64);
+        let inside = |x: f64, lo: f64, k: f64| x >= (lo + 0.04) / k && x <= (lo + 0.96) / k;
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                want += usize::from(inside(x, c, 3.0) && inside(y, r, 2.0));
+            }
+        }
+    }
+    let (code, v, stderr) = bake("lightmap_res = 30\n");
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(v["clutter_texels"].as_u64().unwrap() as usize, want);
+    let a = penumbra_asset::AssetFile::open(&out).unwrap();
+    let meta: Value = serde_json::from_str(a.asset().meta_json()).unwrap();
+    let inst = &meta["inputs"]["clutter"][0];
+    assert_eq!((inst["charts"].as_str(), inst["lightmap_res"].as_u64()), (Some("lightmap"), Some(30)), "{inst}");
+    // the box projection of the same mesh: six charts of 4 × 4 (FAST's --clutter-res 4)
+    let (code, v, stderr) = bake("charts = \"box-projection\"\n");
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(v["clutter_texels"], 6 * 16);
+    // lightmap charts on a mesh without TEXCOORD_1, and a bad atlas size: exit 2, no output
+    let obj = dir.path().join("plain.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n").unwrap();
+    let c = dir.path().join("c.toml");
+    std::fs::write(
+        &c,
+        "[[clutter]]\nmesh = \"plain.obj\"\ntranslate = [0.4, 0.0, 0.4]\nscale = 0.2\ncharts = \"lightmap\"\n",
+    )
+    .unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let (code, _, stderr) = drt_json(&["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap()], &d, &out);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("TEXCOORD_1") && stderr.contains("plain.obj"), "{stderr}");
+    let (code, _, stderr) = bake("lightmap_res = 1\n");
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("lightmap_res"), "{stderr}");
+    assert!(!out.exists(), "no output on error");
+}

@@ -35,6 +35,15 @@ pub struct ClutterEntry {
     /// With `mesh`: only the triangles of the glTF node of this name.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node: Option<String>,
+    /// With `mesh`: how its texels and charts are laid out: `"lightmap"` (the glTF
+    /// `TEXCOORD_1` islands; an error when the mesh has none) or `"box-projection"`. Default:
+    /// `"lightmap"` when every primitive has `TEXCOORD_1`, else `"box-projection"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub charts: Option<ChartsName>,
+    /// With lightmap charts: the atlas's texels per edge (2..=4096). Default: the texel
+    /// density of the box projection (docs/drt.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lightmap_res: Option<usize>,
     /// A box instead of a mesh.
     #[serde(default, rename = "box", skip_serializing_if = "Option::is_none")]
     pub box_: Option<ClutterBox>,
@@ -74,6 +83,16 @@ pub enum BoxFacesName {
     All,
     /// No bottom (−y) face.
     NoBottom,
+}
+
+/// How a clutter mesh's charts are made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum ChartsName {
+    /// The lightmap UVs (glTF `TEXCOORD_1`): one chart per UV island.
+    Lightmap,
+    /// The automatic box projection.
+    BoxProjection,
 }
 
 /// A scalar or RGB albedo.
@@ -117,6 +136,17 @@ pub fn parse_clutter_str(source: &str, path: &Path) -> Result<ClutterFile, Confi
         }
         if c.node.is_some() && c.mesh.is_none() {
             return bad("node", "`node` needs `mesh`".into());
+        }
+        if c.charts.is_some() && c.mesh.is_none() {
+            return bad("charts", "`charts` needs `mesh`".into());
+        }
+        if let Some(r) = c.lightmap_res {
+            if c.charts == Some(ChartsName::BoxProjection) || c.mesh.is_none() {
+                return bad("lightmap_res", "`lightmap_res` needs a mesh with lightmap charts".into());
+            }
+            if !(2..=4096).contains(&r) {
+                return bad("lightmap_res", format!("{r} is out of range (allowed: 2..=4096)"));
+            }
         }
         if c.rotate.is_some() && c.rotate_y_deg.is_some() {
             return bad("rotate", "give at most one of `rotate` and `rotate_y_deg`".into());

@@ -184,6 +184,9 @@ pub struct Scene {
     pub animations: Vec<Animation>,
     /// One binding per vertex of `mesh` (empty for OBJ).
     pub bindings: Vec<VertexBinding>,
+    /// glTF `TEXCOORD_1` (lightmap UVs) per vertex of `mesh`; empty unless every triangle
+    /// primitive has it (and for OBJ).
+    pub uv1: Vec<[f64; 2]>,
 }
 
 /// Errors of [`Scene::pose`].
@@ -367,6 +370,7 @@ impl Scene {
         let mut remap = vec![u32::MAX; self.mesh.positions.len()];
         let mut positions = Vec::new();
         let mut bindings = Vec::new();
+        let mut uv1 = Vec::new();
         let indices = tris
             .iter()
             .map(|t| {
@@ -375,6 +379,9 @@ impl Scene {
                         remap[v as usize] = positions.len() as u32;
                         positions.push(self.mesh.positions[v as usize]);
                         bindings.push(self.bindings[v as usize]);
+                        if let Some(&uv) = self.uv1.get(v as usize) {
+                            uv1.push(uv);
+                        }
                     }
                     remap[v as usize]
                 })
@@ -386,6 +393,7 @@ impl Scene {
             skins: self.skins.clone(),
             animations: self.animations.clone(),
             bindings,
+            uv1,
         })
     }
 
@@ -567,6 +575,7 @@ mod tests {
             nodes,
             skins,
             animations: vec![anim],
+            uv1: Vec::new(),
             bindings: vec![
                 bind([0.0, 2.0, 0.0], [0.0, 1.0, 0.0, 0.0]),
                 bind([0.0, 2.0, 0.0], [0.5, 0.5, 0.0, 0.0]),

@@ -62,6 +62,7 @@ fn two_bone_bar(shift: [f64; 3]) -> Scene {
         skins: vec![Skin { name: None, joints: vec![0, 1], inverse_bind_matrices: vec![IDENTITY; 2], skeleton: None }],
         animations: vec![Animation { name: Some("slide".into()), channels: vec![track(0), track(1)] }],
         bindings,
+        uv1: Vec::new(),
     }
 }
 

@@ -25,7 +25,11 @@
 //!   rasterised in its axis plane on a square grid of spacing `h = (largest extent)/res`; each
 //!   grid-cell centre covered by a triangle of the chart is a texel at the point of that
 //!   triangle above it (several surfaces above one cell give one texel each, in depth order:
-//!   the texel's `layer`). glTF `TEXCOORD_1` is not read yet (the mesh model carries no UVs).
+//!   the texel's `layer`).
+//! - Meshes with glTF `TEXCOORD_1` (lightmap UVs, [`ClutterShape::Lightmapped`]): one chart
+//!   per UV island, texels on the `N × N` atlas cells the islands cover (`layer` 0, `(i, j)`
+//!   the cell, `N` = `lightmap_res` or [`lightmap_res`]); an island covering no cell centre
+//!   gets one texel with `layer` 1. Overlapping islands are an error.
 //!
 //! # Rays
 //! All instances' triangles, placed in the world, go into one BVH (`geometry`'s exact,
@@ -57,6 +61,16 @@ pub enum ClutterShape {
     },
     /// A triangle mesh (outward winding), in its own frame.
     Mesh(TriMesh),
+    /// A triangle mesh with lightmap UVs (glTF `TEXCOORD_1`, one per vertex, in `[0, 1]²`):
+    /// its charts are the UV islands, its texels the atlas's `res × res` cells (module docs).
+    Lightmapped {
+        /// The mesh (outward winding), in its own frame.
+        mesh: TriMesh,
+        /// UV per vertex.
+        uv: Vec<[f64; 2]>,
+        /// Atlas texels per edge; `None` picks the box-projection's texel density.
+        res: Option<usize>,
+    },
 }
 
 /// One clutter instance as given by the user.
@@ -130,6 +144,22 @@ impl ClutterSpec {
             ClutterShape::Mesh(m) => {
                 m.validate().map_err(|e| TransportError::Param(format!("clutter {index} ({}): {e}", self.name)))?;
             }
+            ClutterShape::Lightmapped { mesh, uv, res } => {
+                mesh.validate().map_err(|e| TransportError::Param(format!("clutter {index} ({}): {e}", self.name)))?;
+                if uv.len() != mesh.positions.len() {
+                    return bad(format!("{} TEXCOORD_1 values for {} vertices", uv.len(), mesh.positions.len()));
+                }
+                if let Some((v, w)) =
+                    uv.iter().enumerate().find(|(_, w)| !w.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)))
+                {
+                    return bad(format!("TEXCOORD_1 of vertex {v} is {w:?}, outside [0, 1]² (lightmap UVs)"));
+                }
+                if let Some(r) = res
+                    && !(2..=MAX_LIGHTMAP_RES).contains(r)
+                {
+                    return bad(format!("lightmap_res {r} is out of range (allowed: 2..={MAX_LIGHTMAP_RES})"));
+                }
+            }
         }
         let n = n2.sqrt();
         Ok(self.rotate.map(|x| x / n))
@@ -197,6 +227,8 @@ pub struct ClutterScene {
     bvh: Option<MeshBvh>,
     /// Per instance: its own BVH and the global index of its first triangle.
     inst_bvh: Vec<(MeshBvh, usize)>,
+    /// Per instance: the lightmap atlas edge of a lightmapped mesh (`TEXCOORD_1`), else 0.
+    pub lightmap_res: Vec<usize>,
     /// Per instance: the analytic form of a box (ray queries without the BVH).
     inst_box: Vec<Option<BoxGeom>>,
     /// `bounds`, padded ([`pad_box`]).
@@ -426,6 +458,185 @@ fn build_box(spec: &ClutterSpec, size: [f64; 3], faces: BoxFaces, res: usize, su
     b
 }
 
+/// Largest lightmap atlas edge (texels).
+pub const MAX_LIGHTMAP_RES: usize = 4096;
+
+/// The atlas edge a lightmapped mesh gets without `lightmap_res`: the box projection's
+/// texel spacing `h = (largest extent)/res` in the world, through the mean ratio of world to
+/// UV area: `N = ⌈√(A_world/A_uv)/h⌉`, clamped to `2..=MAX_LIGHTMAP_RES`.
+pub fn lightmap_res(spec: &ClutterSpec, mesh: &TriMesh, uv: &[[f64; 2]], res: usize) -> usize {
+    let (mut aw, mut au) = (0.0, 0.0);
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (t, ix) in mesh.indices.iter().enumerate() {
+        let w = mesh.triangle(t).map(|p| spec.to_world(p));
+        for p in &w {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let n = cross(sub(w[1], w[0]), sub(w[2], w[0]));
+        aw += 0.5 * dot(n, n).sqrt();
+        let [a, b, c] = ix.map(|v| uv[v as usize]);
+        au += 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs();
+    }
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f64, f64::max);
+    if !(au > 0.0 && extent > 0.0) {
+        return 2;
+    }
+    let h = extent / res as f64;
+    let n = ((aw / au).sqrt() / h).ceil();
+    (n as usize).clamp(2, MAX_LIGHTMAP_RES)
+}
+
+/// A covered atlas cell: (cell, island, triangle, strictly inside, point, normal).
+type UvHit = (usize, usize, usize, bool, [f64; 3], [f64; 3]);
+
+/// Lightmap texels of a mesh (module docs): charts are the UV islands (triangles joined
+/// through shared vertices; exporters split vertices at UV seams), texel `(i, j)` is the
+/// atlas cell centred at `((i+½)/N, (j+½)/N)`, placed at the point of the triangle that
+/// covers it (barycentric in UV, closed edges; a centre two triangles of one island share
+/// is kept once). Two islands over one centre are an error: lightmap UVs must not overlap.
+/// An island too small to cover a cell centre gets one texel at the centroid of its largest
+/// triangle, with `layer` 1 and the cell of that centroid's UV (it has no atlas cell of its
+/// own; an engine lights the island with that one value).
+fn build_lightmapped(
+    spec: &ClutterSpec,
+    mesh: &TriMesh,
+    uv: &[[f64; 2]],
+    n: usize,
+    index: usize,
+) -> Result<Built, TransportError> {
+    // islands: union-find over vertices
+    let mut parent: Vec<usize> = (0..mesh.positions.len()).collect();
+    fn root(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for t in &mesh.indices {
+        let r0 = root(&mut parent, t[0] as usize);
+        for &v in &t[1..] {
+            let r = root(&mut parent, v as usize);
+            if r != r0 {
+                let (a, b) = (r.min(r0), r.max(r0));
+                parent[b] = a;
+            }
+        }
+    }
+    let world: Vec<[[f64; 3]; 3]> =
+        (0..mesh.triangle_count()).map(|t| mesh.triangle(t).map(|p| spec.to_world(p))).collect();
+    // island of each triangle, numbered in order of first appearance
+    let mut island_of_root = std::collections::BTreeMap::new();
+    let mut island = Vec::with_capacity(world.len());
+    for t in &mesh.indices {
+        let r = root(&mut parent, t[0] as usize);
+        let next = island_of_root.len();
+        island.push(*island_of_root.entry(r).or_insert(next));
+    }
+    let nf = n as f64;
+    let mut hits: Vec<UvHit> = Vec::new();
+    for (t, ix) in mesh.indices.iter().enumerate() {
+        let tri = world[t];
+        let nn = cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]));
+        if dot(nn, nn) == 0.0 {
+            continue;
+        }
+        let nrm = normalize(nn);
+        let q = ix.map(|v| uv[v as usize]);
+        let (mut a0, mut a1, mut b0, mut b1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for v in &q {
+            a0 = a0.min(v[0]);
+            a1 = a1.max(v[0]);
+            b0 = b0.min(v[1]);
+            b1 = b1.max(v[1]);
+        }
+        let i0 = ((a0 * nf - 0.5).floor().max(0.0)) as usize;
+        let i1 = ((a1 * nf - 0.5).ceil().max(0.0) as usize).min(n - 1);
+        let j0 = ((b0 * nf - 0.5).floor().max(0.0)) as usize;
+        let j1 = ((b1 * nf - 0.5).ceil().max(0.0) as usize).min(n - 1);
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let (x, y) = ((i as f64 + 0.5) / nf, (j as f64 + 0.5) / nf);
+                let e = |v0: [f64; 2], v1: [f64; 2]| (v1[0] - v0[0]) * (y - v0[1]) - (v1[1] - v0[1]) * (x - v0[0]);
+                let (w0, w1, w2) = (e(q[1], q[2]), e(q[2], q[0]), e(q[0], q[1]));
+                let area = w0 + w1 + w2;
+                if area == 0.0 {
+                    continue;
+                }
+                let (l0, l1, l2) = (w0 / area, w1 / area, w2 / area);
+                if l0 < 0.0 || l1 < 0.0 || l2 < 0.0 {
+                    continue;
+                }
+                let pos: [f64; 3] = core::array::from_fn(|k| l0 * tri[0][k] + l1 * tri[1][k] + l2 * tri[2][k]);
+                let strict = l0 > 1e-9 && l1 > 1e-9 && l2 > 1e-9;
+                hits.push((j * n + i, island[t], t, strict, pos, nrm));
+            }
+        }
+    }
+    hits.sort_by(|a, b| a.0.cmp(&b.0).then(a.2.cmp(&b.2)));
+    let mut charts: Vec<Vec<ClutterTexel>> = vec![Vec::new(); island_of_root.len()];
+    let mut k = 0;
+    while k < hits.len() {
+        let cell = hits[k].0;
+        let first = hits[k];
+        let mut e = k;
+        while e < hits.len() && hits[e].0 == cell {
+            let h = hits[e];
+            if h.1 != first.1 && (h.3 || first.3) {
+                let (i, j) = (cell % n, cell / n);
+                return Err(TransportError::Param(format!(
+                    "clutter {index} ({}): TEXCOORD_1 overlaps: lightmap texel ({i}, {j}) of {n}² lies in triangles                      {} and {} of two UV islands (lightmap UVs must not overlap)",
+                    spec.name, first.2, h.2
+                )));
+            }
+            e += 1;
+        }
+        charts[first.1].push(ClutterTexel {
+            position: first.4,
+            normal: first.5,
+            chart: 0,
+            uv: [0, (cell % n) as u32, (cell / n) as u32],
+        });
+        k = e;
+    }
+    // islands without a cell centre: one texel at their largest triangle's centroid
+    let mut largest: Vec<Option<(f64, usize)>> = vec![None; charts.len()];
+    for (t, tri) in world.iter().enumerate() {
+        let nn = cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]));
+        let a = dot(nn, nn);
+        if a > 0.0 && largest[island[t]].is_none_or(|(b, _)| a > b) {
+            largest[island[t]] = Some((a, t));
+        }
+    }
+    for (c, l) in charts.iter_mut().zip(&largest) {
+        if let (true, Some((_, t))) = (c.is_empty(), l) {
+            let tri = world[*t];
+            let q = mesh.indices[*t].map(|v| uv[v as usize]);
+            let cell =
+                |k: usize| (((q[0][k] + q[1][k] + q[2][k]) / 3.0 * nf).floor().max(0.0) as u32).min(n as u32 - 1);
+            c.push(ClutterTexel {
+                position: core::array::from_fn(|k| (tri[0][k] + tri[1][k] + tri[2][k]) / 3.0),
+                normal: normalize(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]))),
+                chart: 0,
+                uv: [1, cell(0), cell(1)],
+            });
+        }
+    }
+    let mut b = Built { tris: Vec::new(), tri_chart: Vec::new(), charts };
+    for (t, tri) in world.into_iter().enumerate() {
+        let nn = cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]));
+        if dot(nn, nn) > 0.0 {
+            b.tris.push(tri);
+            b.tri_chart.push(island[t]);
+        }
+    }
+    Ok(b)
+}
+
 /// A covered cell of a chart's grid: (cell, unused, depth along the axis, point, normal).
 type CellHit = (usize, usize, f64, [f64; 3], [f64; 3]);
 
@@ -565,18 +776,27 @@ impl ClutterScene {
         let mut tri_normal = Vec::new();
         let mut inst_bvh = Vec::new();
         let mut inst_box = Vec::new();
+        let mut lightmap = Vec::new();
         for (i, s) in specs.iter().enumerate() {
             let mut s = s.clone();
             s.rotate = s.validate(i)?;
             let built = match &s.shape {
                 ClutterShape::Box { size, faces } => build_box(&s, *size, *faces, res, per_face),
                 ClutterShape::Mesh(m) => build_mesh(&s, m, res),
+                ClutterShape::Lightmapped { mesh, uv, res: r } => {
+                    let n = r.unwrap_or_else(|| lightmap_res(&s, mesh, uv, res));
+                    lightmap.push(n);
+                    build_lightmapped(&s, mesh, uv, n, i)?
+                }
             };
+            if !matches!(s.shape, ClutterShape::Lightmapped { .. }) {
+                lightmap.push(0);
+            }
             let first = texels.len();
             let chart0 = charts.len();
             inst_box.push(match &s.shape {
                 ClutterShape::Box { size, faces } => Some(BoxGeom::new(&s, *size, *faces, per_face, chart0)),
-                ClutterShape::Mesh(_) => None,
+                ClutterShape::Mesh(_) | ClutterShape::Lightmapped { .. } => None,
             });
             for ct in &built.charts {
                 if ct.is_empty() {
@@ -649,6 +869,7 @@ impl ClutterScene {
             inst_bvh,
             padded,
             inst_box,
+            lightmap_res: lightmap,
         })
     }
 
@@ -668,6 +889,7 @@ impl ClutterScene {
             inst_bvh: Vec::new(),
             inst_box: Vec::new(),
             padded: Vec::new(),
+            lightmap_res: Vec::new(),
         }
     }
 
@@ -705,10 +927,27 @@ impl ClutterScene {
     /// The closest hit among the instances `insts` along the unit ray `o + t·d`,
     /// `t ∈ [tmin, tmax]` (each instance's box first, then its own BVH).
     pub fn closest_among(&self, insts: &[usize], o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Option<ClutterHit> {
+        self.closest_among_except(insts, usize::MAX, o, d, tmin, tmax)
+    }
+
+    /// [`ClutterScene::closest_among`] without instance `skip` (a ray leaving a box's own
+    /// surface outwards cannot meet that box again: it is convex, open bottom or not).
+    pub fn closest_among_except(
+        &self,
+        insts: &[usize],
+        skip: usize,
+        o: [f64; 3],
+        d: [f64; 3],
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ClutterHit> {
         // (t, global triangle or usize::MAX for a box, instance, box face)
         let mut best: Option<(f64, usize, usize, usize)> = None;
         let inv = d.map(|x| 1.0 / x);
         for &i in insts {
+            if i == skip {
+                continue;
+            }
             let hi = best.map_or(tmax, |b| b.0);
             if !slab_inv(&self.padded[i], o, inv, tmin, hi) {
                 continue;
@@ -780,6 +1019,11 @@ impl ClutterScene {
         })
     }
 
+    /// Whether instance `i` is a box (met analytically; convex).
+    pub fn is_box(&self, i: usize) -> bool {
+        self.inst_box[i].is_some()
+    }
+
     /// Whether the segment from `a` to `b` crosses clutter (strictly between the ends).
     pub fn blocks_segment(&self, a: [f64; 3], b: [f64; 3]) -> bool {
         let Some(bvh) = &self.bvh else { return false };
@@ -844,6 +1088,118 @@ mod tests {
             let on_face = t.position.iter().any(|&x| x.abs() < 1e-12 || (x - 0.5).abs() < 1e-12);
             assert!(on_face, "{t:?}");
         }
+    }
+
+    /// The unit cube with split vertices per face and each face's UVs an inset rectangle of a
+    /// 3 × 2 grid (`g` the gap), faces listed as (origin, edge u, edge v) with `u × v` outward.
+    type Frames = Vec<([f64; 3], [f64; 3], [f64; 3])>;
+
+    fn lightmapped_cube(g: f64) -> (TriMesh, Vec<[f64; 2]>, Frames) {
+        let faces = [
+            ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]),  // −x
+            ([1.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]), // +x
+            ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),  // −y
+            ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),  // +y
+            ([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]), // −z
+            ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),  // +z
+        ];
+        let (mut positions, mut indices, mut uv) = (Vec::new(), Vec::new(), Vec::new());
+        for (f, (o, eu, ev)) in faces.iter().enumerate() {
+            let (c, r) = ((f % 3) as f64, (f / 3) as f64);
+            let b = positions.len() as u32;
+            for (a, bb) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+                positions.push(core::array::from_fn(|k| o[k] + a * eu[k] + bb * ev[k]));
+                uv.push([(c + g + a * (1.0 - 2.0 * g)) / 3.0, (r + g + bb * (1.0 - 2.0 * g)) / 2.0]);
+            }
+            indices.push([b, b + 1, b + 2]);
+            indices.push([b, b + 2, b + 3]);
+        }
+        (TriMesh { positions, indices }, uv, faces.to_vec())
+    }
+
+    #[test]
+    fn lightmap_uvs_give_one_chart_per_island_on_the_cells_it_covers() {
+        let (mesh, uv, faces) = lightmapped_cube(0.05);
+        let n = 30;
+        let spec = ClutterSpec {
+            name: "cube".into(),
+            shape: ClutterShape::Lightmapped { mesh, uv, res: Some(n) },
+            translate: [0.0; 3],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 1.0,
+            albedo: [0.3; 3],
+        };
+        let s = ClutterScene::new(&[spec], 4).unwrap();
+        assert_eq!(s.lightmap_res, vec![n]);
+        assert_eq!(s.charts.len(), 6);
+        for (f, (o, eu, ev)) in faces.iter().enumerate() {
+            let (c, r) = ((f % 3) as f64, (f / 3) as f64);
+            // independent count: cell centres inside the face's UV rectangle
+            let (u0, u1) = ((c + 0.05) / 3.0, (c + 0.95) / 3.0);
+            let (v0, v1) = ((r + 0.05) / 2.0, (r + 0.95) / 2.0);
+            let mut want = Vec::new();
+            for j in 0..n {
+                for i in 0..n {
+                    let (x, y) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                    if (u0..=u1).contains(&x) && (v0..=v1).contains(&y) {
+                        want.push((i as u32, j as u32, x, y));
+                    }
+                }
+            }
+            let ch = &s.charts[f];
+            assert_eq!(ch.count, want.len(), "face {f}");
+            let nrm = cross(*eu, *ev);
+            for (t, &(i, j, x, y)) in s.texels[ch.first..ch.first + ch.count].iter().zip(&want) {
+                assert_eq!(t.uv, [0, i, j]);
+                // the UV → face map is affine: the texel lies where its cell centre maps
+                let (a, b) = ((3.0 * x - c - 0.05) / 0.9, (2.0 * y - r - 0.05) / 0.9);
+                let p: [f64; 3] = core::array::from_fn(|k| o[k] + a * eu[k] + b * ev[k]);
+                assert!((0..3).all(|k| (p[k] - t.position[k]).abs() < 1e-12), "{p:?} {t:?}");
+                assert!((0..3).all(|k| (nrm[k] - t.normal[k]).abs() < 1e-12), "{t:?}");
+            }
+        }
+        // density-matched default: world area 6, UV area 6·(0.9/3)(0.9/2), extent 1, res 4
+        let (mesh, uv, _) = lightmapped_cube(0.05);
+        let spec = ClutterSpec {
+            name: "cube".into(),
+            shape: ClutterShape::Lightmapped { mesh, uv, res: None },
+            translate: [0.0; 3],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 2.0,
+            albedo: [0.3; 3],
+        };
+        let want = ((1.0f64 / (0.3 * 0.45)).sqrt() * 4.0).ceil() as usize;
+        assert_eq!(ClutterScene::new(&[spec], 4).unwrap().lightmap_res, vec![want]);
+    }
+
+    #[test]
+    fn overlapping_lightmap_islands_and_tiny_islands() {
+        // two faces on the same UV rectangle: an error naming the texel
+        let (mesh, mut uv, _) = lightmapped_cube(0.05);
+        for v in 0..4 {
+            uv[4 + v] = uv[v];
+        }
+        let spec = |mesh, uv, res| ClutterSpec {
+            name: "cube".into(),
+            shape: ClutterShape::Lightmapped { mesh, uv, res },
+            translate: [0.0; 3],
+            rotate: [0.0, 0.0, 0.0, 1.0],
+            scale: 1.0,
+            albedo: [0.3; 3],
+        };
+        let e = ClutterScene::new(&[spec(mesh, uv, Some(16))], 4).unwrap_err().to_string();
+        assert!(e.contains("overlap") && e.contains("clutter 0"), "{e}");
+        // at 2 × 2 texels most islands cover no cell centre: one texel each, layer 1
+        let (mesh, uv, _) = lightmapped_cube(0.05);
+        let s = ClutterScene::new(&[spec(mesh, uv, Some(2))], 4).unwrap();
+        assert_eq!(s.charts.len(), 6);
+        assert!(s.charts.iter().all(|c| c.count >= 1));
+        assert!(s.texels.iter().any(|t| t.uv[0] == 1));
+        // UVs outside the unit square
+        let (mesh, mut uv, _) = lightmapped_cube(0.05);
+        uv[3] = [1.5, 0.0];
+        let e = ClutterScene::new(&[spec(mesh, uv, None)], 4).unwrap_err().to_string();
+        assert!(e.contains("TEXCOORD_1 of vertex 3"), "{e}");
     }
 
     #[test]

@@ -50,7 +50,6 @@ use crate::level::{Level, Links};
 use crate::level_reference::LevelGeometry;
 use crate::shape::{FACE_COUNT, Shape, Texels, face_uv};
 use crate::svd::thin_svd;
-use faer::Mat;
 use penumbra_asset::{Asset, Kind};
 use penumbra_math::progress::Progress;
 use penumbra_math::rng::{hash4, unit_f64};
@@ -355,7 +354,7 @@ fn truncated(op: &[f64], rows: usize, cols: usize, k: usize) -> Result<Factors, 
     // so modes below 10⁻⁷σ₁ are cut (10⁻¹²σ₁ on the SVD path); the verified errors did not
     // change to the printed digits (docs/drt.md)
     let (s, v) = if rows >= 2 * cols {
-        let g = crate::svd::mul_tn(m, m);
+        let g = gram(op, rows, cols);
         let (l, v) = crate::svd::sym_eigen(g.as_ref())?;
         (l.iter().map(|&x| x.max(0.0).sqrt()).collect::<Vec<f64>>(), v)
     } else {
@@ -389,6 +388,36 @@ fn truncated(op: &[f64], rows: usize, cols: usize, k: usize) -> Result<Factors, 
     let rest: f64 = s[r..].iter().map(|x| x * x).sum();
     let err = if all > 0.0 { (rest / all).sqrt() } else { 0.0 };
     Ok((a, w, r, err))
+}
+
+/// `opᵀ·op` of a row-major matrix. The DRT operators are sparse by rows (a clutter texel
+/// sees a few charts and blocks of the dozens its instance's rays reach), so when the rows'
+/// nonzeros are few the Gram matrix is summed from each row's outer product
+/// (`Σ nnz_row²` multiply-adds instead of `rows·cols²`), else by the dense product.
+fn gram(op: &[f64], rows: usize, cols: usize) -> faer::Mat<f64> {
+    let mut work = 0usize;
+    for row in op.chunks_exact(cols) {
+        let nz = row.iter().filter(|&&x| x != 0.0).count();
+        work += nz * nz;
+    }
+    // the dense product runs several times faster per multiply-add
+    if work.saturating_mul(8) >= rows * cols * cols {
+        let m = faer::MatRef::from_row_major_slice(op, rows, cols);
+        return crate::svd::mul_tn(m, m);
+    }
+    let mut g = vec![0.0; cols * cols];
+    let mut nz: Vec<(usize, f64)> = Vec::with_capacity(cols);
+    for row in op.chunks_exact(cols) {
+        nz.clear();
+        nz.extend(row.iter().enumerate().filter(|(_, x)| **x != 0.0).map(|(j, &x)| (j, x)));
+        for (a, &(i, x)) in nz.iter().enumerate() {
+            let gi = &mut g[i * cols..(i + 1) * cols];
+            for &(j, y) in &nz[a..] {
+                gi[j] += x * y;
+            }
+        }
+    }
+    faer::Mat::from_fn(cols, cols, |i, j| if i <= j { g[i * cols + j] } else { g[j * cols + i] })
 }
 
 /// `(A, W, rank, ‖op − A W‖_F / ‖op‖_F)`.
@@ -599,6 +628,19 @@ impl Scene<'_> {
     /// [`Scene::cast`] with a caller-owned buffer for the blocks the ray crosses (the bake's
     /// ray loops cast millions of rays; one allocation per texel instead of per ray).
     pub fn cast_with(&self, b: usize, x: [f64; 3], d: [f64; 3], segs: &mut Vec<(usize, f64, f64)>) -> RayHit {
+        self.cast_except(b, x, d, segs, usize::MAX)
+    }
+
+    /// [`Scene::cast_with`] for a ray that cannot meet clutter instance `skip` (a box's own
+    /// texel looking out); `usize::MAX` skips none.
+    pub fn cast_except(
+        &self,
+        b: usize,
+        x: [f64; 3],
+        d: [f64; 3],
+        segs: &mut Vec<(usize, f64, f64)>,
+        skip: usize,
+    ) -> RayHit {
         let wall = self.geo.trace_segments(b, x, d, segs).map(|h| (h.block, h.face, h.point));
         let mut hit = None;
         for &(y, t0, t1) in segs.iter() {
@@ -606,7 +648,7 @@ impl Scene<'_> {
             if insts.is_empty() {
                 continue;
             }
-            if let Some(h) = self.clutter.closest_among(insts, x, d, t0.max(1e-9), t1) {
+            if let Some(h) = self.clutter.closest_among_except(insts, skip, x, d, t0.max(1e-9), t1) {
                 hit = Some(h);
                 break;
             }
@@ -654,6 +696,42 @@ fn rotate_z(l: [f64; 3], (c, s): (f64, f64)) -> [f64; 3] {
     [l[0] * c - l[1] * s, l[0] * s + l[1] * c, l[2]]
 }
 
+/// Ray hits per clutter chart for one texel: integer counts (so a texel's sums do not
+/// depend on the order of its rays) and the charts touched, reset after each texel.
+struct ChartCounts {
+    count: Vec<u32>,
+    touched: Vec<usize>,
+}
+
+impl ChartCounts {
+    fn new(charts: usize) -> Self {
+        Self { count: vec![0; charts], touched: Vec::new() }
+    }
+
+    fn hit(&mut self, chart: usize) {
+        if self.count[chart] == 0 {
+            self.touched.push(chart);
+        }
+        self.count[chart] += 1;
+    }
+
+    /// `(chart, hits/(N·√m_j))` in chart order (the orthonormal basis value per hit,
+    /// §5.3.2), and the counters reset.
+    fn take(&mut self, charts: &[crate::clutter::Chart], n: f64) -> Vec<(usize, f64)> {
+        self.touched.sort_unstable();
+        let out = self
+            .touched
+            .iter()
+            .map(|&j| {
+                let c = core::mem::take(&mut self.count[j]);
+                (j, c as f64 / (n * (charts[j].count as f64).sqrt()))
+            })
+            .collect();
+        self.touched.clear();
+        out
+    }
+}
+
 /// What the rays of one scene texel found.
 #[derive(Debug, Default)]
 struct TexelRays {
@@ -666,7 +744,14 @@ struct TexelRays {
 }
 
 /// The rays of scene texel `t` of block `x`.
-fn scene_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, x: usize, t: usize) -> TexelRays {
+fn scene_texel(
+    sc: &Scene<'_>,
+    dirs: &DirectionSet,
+    rho: f64,
+    seed: u64,
+    (x, t): (usize, usize),
+    counts: &mut ChartCounts,
+) -> TexelRays {
     let blk = &sc.geo.level.blocks[x];
     let sh = &sc.dict.shapes[blk.shape];
     let (f, _, _) = sh.texels.coords(t);
@@ -691,16 +776,12 @@ fn scene_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, x: usiz
             sc.add_l_imp(y, g, q, -rho / n, &mut out.du_b[slot].1);
         }
         if hit.front {
-            let c = &sc.clutter.charts[hit.chart];
-            let w = 1.0 / (n * (c.count as f64).sqrt());
-            match out.du_c.iter_mut().find(|(j, _)| *j == hit.chart) {
-                Some(e) => e.1 += w,
-                None => out.du_c.push((hit.chart, w)),
-            }
+            counts.hit(hit.chart);
         } else {
             out.back += 1;
         }
     }
+    out.du_c = counts.take(&sc.clutter.charts, n);
     out
 }
 
@@ -708,10 +789,64 @@ fn scene_texel(sc: &Scene<'_>, dirs: &DirectionSet, rho: f64, seed: u64, x: usiz
 /// `(chart, value)` pairs of `C_c`.
 type ClutterRays = (Vec<(usize, Vec<f64>)>, Vec<(usize, f64)>);
 
+/// One texel's bilinear weights on the wall texels of the blocks its rays reach: a dense
+/// accumulator per block with the texels touched, so the row `(ρ/N)·w·L_imp` costs
+/// `touched × k_b` multiply-adds (summed in texel order, not ray order) and nothing is
+/// zeroed but what was touched.
+struct WallWeights {
+    /// `(block, weight per wall texel, wall texels touched)`, reused across texels.
+    slots: Vec<(usize, Vec<f64>, Vec<usize>)>,
+    /// Slots this texel reached.
+    used: Vec<usize>,
+}
+
+impl WallWeights {
+    fn add(&mut self, y: usize, n: usize, t: usize, w: f64) {
+        let s = match self.slots.iter().position(|(b, _, _)| *b == y) {
+            Some(s) => s,
+            None => {
+                self.slots.push((y, vec![0.0; n], Vec::new()));
+                self.slots.len() - 1
+            }
+        };
+        let (_, acc, touched) = &mut self.slots[s];
+        if touched.is_empty() {
+            self.used.push(s);
+        }
+        if acc[t] == 0.0 {
+            touched.push(t);
+        }
+        acc[t] += w;
+    }
+
+    /// The texel's rows `(block, scale·w·L_imp)` in block order; the accumulators reset.
+    fn take(&mut self, dict: &DrtDict, level: &Level, scale: f64) -> Vec<(usize, Vec<f64>)> {
+        let mut out = Vec::with_capacity(self.used.len());
+        for &s in &self.used {
+            let (y, acc, touched) = &mut self.slots[s];
+            let sh = &dict.shapes[level.blocks[*y].shape];
+            let k = sh.k_b;
+            touched.sort_unstable();
+            let mut row = vec![0.0; k];
+            for &t in touched.iter() {
+                let w = core::mem::take(&mut acc[t]);
+                for (a, l) in row.iter_mut().zip(&sh.l_imp[t * k..(t + 1) * k]) {
+                    *a += w * l;
+                }
+            }
+            touched.clear();
+            for a in &mut row {
+                *a *= scale;
+            }
+            out.push((*y, row));
+        }
+        self.used.clear();
+        out.sort_unstable_by_key(|(y, _)| *y);
+        out
+    }
+}
+
 /// The rays of the clutter texels `idx` (`Err` for a texel whose outside lies in no block).
-/// Rays add bilinear weights per (texel, wall texel) of each block they reach; one product
-/// per block with its `L_imp` at the end (`(ρ/N)·W·L_imp`, a dense matrix product): a ray
-/// costs 4 adds instead of 4·k_b multiply-adds, and the product runs at matrix speed.
 fn clutter_texels(
     sc: &Scene<'_>,
     dirs: &DirectionSet,
@@ -720,76 +855,43 @@ fn clutter_texels(
     idx: &[usize],
 ) -> Vec<Result<ClutterRays, usize>> {
     let nd = dirs.len() as f64;
-    let len = idx.len();
-    // (block, len × n_block weights, which of the texels reached it)
-    let mut wts: Vec<(usize, Mat<f64>, Vec<bool>)> = Vec::new();
-    let mut cc: Vec<Vec<(usize, f64)>> = vec![Vec::new(); len];
-    let mut inside = vec![true; len];
+    let mut walls = WallWeights { slots: Vec::new(), used: Vec::new() };
+    let mut counts = ChartCounts::new(sc.clutter.charts.len());
     let mut segs = Vec::with_capacity(8);
-    for (r, &i) in idx.iter().enumerate() {
+    let mut out = Vec::with_capacity(idx.len());
+    for &i in idx {
         let tx = &sc.clutter.texels[i];
         let n = tx.normal;
         // off the surface by a hair: the texel's own face is not hit again
         let eps = 1e-7;
         let o = [tx.position[0] + eps * n[0], tx.position[1] + eps * n[1], tx.position[2] + eps * n[2]];
         let Some(b) = sc.geo.block_of(o) else {
-            inside[r] = false;
+            out.push(Err(i));
             continue;
         };
         let (t, bt) = penumbra_math::warp::orthonormal_basis(n);
         let fr = [t, bt, n];
         let rot = rotation(seed ^ 0x4342, u64::MAX - 1, i as u64);
+        let own = sc.clutter.charts[tx.chart].instance;
+        let skip = if sc.clutter.is_box(own) { own } else { usize::MAX };
         for dl in &dirs.dirs {
             let d = frame_dir(&fr, rotate_z(*dl, rot));
-            match sc.cast_with(b, o, d, &mut segs) {
+            match sc.cast_except(b, o, d, &mut segs, skip) {
                 RayHit::Wall(y, g, q) => {
                     let blk = &sc.geo.level.blocks[y];
                     let sh = &sc.dict.shapes[blk.shape];
-                    let slot = match wts.iter().position(|(s, _, _)| *s == y) {
-                        Some(s) => s,
-                        None => {
-                            wts.push((y, Mat::zeros(len, sh.texels.len()), vec![false; len]));
-                            wts.len() - 1
-                        }
-                    };
                     let (u, v) = face_uv(g, blk.to_local(q));
-                    wts[slot].2[r] = true;
-                    let w = &mut wts[slot].1;
                     for (t, bw) in sh.texels.bilinear(g, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
-                        w[(r, t)] += bw;
+                        if bw != 0.0 {
+                            walls.add(y, sh.texels.len(), t, bw);
+                        }
                     }
                 }
-                RayHit::Clutter(_, h) if h.front => {
-                    let w = 1.0 / (nd * (sc.clutter.charts[h.chart].count as f64).sqrt());
-                    match cc[r].iter_mut().find(|(j, _)| *j == h.chart) {
-                        Some(e) => e.1 += w,
-                        None => cc[r].push((h.chart, w)),
-                    }
-                }
+                RayHit::Clutter(_, h) if h.front => counts.hit(h.chart),
                 _ => {}
             }
         }
-    }
-    let mut out: Vec<Result<ClutterRays, usize>> =
-        idx.iter().zip(&inside).map(|(&i, &ok)| if ok { Ok((Vec::new(), Vec::new())) } else { Err(i) }).collect();
-    for (y, w, reached) in wts {
-        let sh = &sc.dict.shapes[sc.geo.level.blocks[y].shape];
-        let k = sh.k_b;
-        let l = faer::MatRef::from_row_major_slice(&sh.l_imp, sh.texels.len(), k);
-        let c = crate::svd::mul(w.as_ref(), l);
-        for (r, o) in out.iter_mut().enumerate() {
-            if let Ok((rows, _)) = o {
-                // a texel no ray of this block reached has a zero row: leave it out
-                if reached[r] {
-                    rows.push((y, (0..k).map(|c2| rho / nd * c[(r, c2)]).collect()));
-                }
-            }
-        }
-    }
-    for (o, c) in out.iter_mut().zip(cc) {
-        if let Ok((_, v)) = o {
-            *v = c;
-        }
+        out.push(Ok((walls.take(sc.dict, sc.geo.level, rho / nd), counts.take(&sc.clutter.charts, nd))));
     }
     out
 }
@@ -887,8 +989,9 @@ pub fn bake_shard(
     let per_texel: Vec<TexelRays> = items
         .par_chunks(64)
         .flat_map_iter(|chunk| {
+            let mut counts = ChartCounts::new(clutter.charts.len());
             let v: Vec<TexelRays> =
-                chunk.iter().map(|&(x, t)| scene_texel(&sc, &dirs, rho, params.seed, x, t)).collect();
+                chunk.iter().map(|&xt| scene_texel(&sc, &dirs, rho, params.seed, xt, &mut counts)).collect();
             tick(chunk.len() as u64);
             v
         })
@@ -1023,11 +1126,10 @@ fn assemble_block(
     charts.sort_unstable();
     charts.dedup();
     let mut refl = ReflectRecord::new(x, charts.clone(), n);
+    let col = column_map(&charts);
     for (t, r) in rows.iter().enumerate() {
         for &(j, v) in &r.du_c {
-            if let Ok(c) = charts.binary_search(&j) {
-                refl.op[t * charts.len() + c] = v;
-            }
+            refl.op[t * charts.len() + col[j]] = v;
         }
     }
     let mut mask = vec![0u8; n];
@@ -1047,6 +1149,16 @@ fn assemble_block(
     Ok(BlockOut { receiver: Receiver { block: x, texels: n, mask }, du_b: recs, du_c: refl, inpainted, failures })
 }
 
+/// Column of each chart in a sorted, deduplicated chart list.
+/// (dense: indexed by chart, `usize::MAX` for charts not in the list).
+fn column_map(charts: &[usize]) -> Vec<usize> {
+    let mut col = vec![usize::MAX; charts.last().map_or(0, |&j| j + 1)];
+    for (c, &j) in charts.iter().enumerate() {
+        col[j] = c;
+    }
+    col
+}
+
 /// `C_b` (and `C_c`) of instance `i` from its texels' rays.
 fn assemble_instance(
     i: usize,
@@ -1064,11 +1176,10 @@ fn assemble_instance(
         charts.sort_unstable();
         charts.dedup();
         let mut cc = ReflectRecord::new(i, charts.clone(), rows.len());
+        let col = column_map(&charts);
         for (t, r) in rows.iter().enumerate() {
             for &(j, v) in &r.1 {
-                if let Ok(c) = charts.binary_search(&j) {
-                    cc.op[t * charts.len() + c] = v;
-                }
+                cc.op[t * charts.len() + col[j]] = v;
             }
         }
         cc.factor(params.k_c)?;

@@ -102,11 +102,10 @@ impl LevelGeometry<'_> {
     ) -> Option<WallHit> {
         segs.clear();
         let mut travelled = 0.0;
+        let inv = d.map(|x| 1.0 / x);
         for _ in 0..4 * self.level.blocks.len() + 4 {
             let blk = &self.level.blocks[b];
-            let pl = blk.to_local(p).map(|x| x.clamp(0.0, 1.0));
-            let dl = blk.dir_to_local(d);
-            let (f, t) = exit_face(pl, dl);
+            let (f, t) = world_exit(blk, p, d, inv);
             if f == usize::MAX {
                 return None;
             }
@@ -170,6 +169,43 @@ impl LevelGeometry<'_> {
         let r = |v: [f64; 3]| crate::level::rotate_y(v, blk.rotation);
         [r(fr.u), r(fr.v), r(fr.n)]
     }
+}
+
+/// The local face through which a ray leaves block `blk` and its parameter, computed in
+/// the world (every block is an axis-aligned box there): the same face and distance as
+/// `exit_face` in block-local coordinates, without the per-block divisions (the walk of
+/// the DRT bake's rays; `inv` is the direction's reciprocal).
+#[inline]
+fn world_exit(blk: &crate::level::Block, p: [f64; 3], d: [f64; 3], inv: [f64; 3]) -> (usize, f64) {
+    static LOCAL: std::sync::OnceLock<[[usize; 6]; 4]> = std::sync::OnceLock::new();
+    let local = LOCAL.get_or_init(|| {
+        let mut t = [[0; 6]; 4];
+        for (q, row) in t.iter_mut().enumerate() {
+            for f in 0..6 {
+                row[crate::level::world_face(f, q as u32)] = f;
+            }
+        }
+        t
+    });
+    let ext = crate::level::rotate_y(blk.scale, blk.rotation);
+    let mut best = (usize::MAX, f64::INFINITY);
+    for a in 0..3 {
+        let h = 0.5 * ext[a].abs();
+        let (lo, hi) = (blk.translation[a] - h, blk.translation[a] + h);
+        let pa = p[a].clamp(lo, hi);
+        let (t, w) = if d[a] > 0.0 {
+            ((hi - pa) * inv[a], 2 * a + 1)
+        } else if d[a] < 0.0 {
+            ((lo - pa) * inv[a], 2 * a)
+        } else {
+            continue;
+        };
+        let f = local[blk.rotation as usize % 4][w];
+        if t < best.1 || (t == best.1 && f < best.0) {
+            best = (f, t);
+        }
+    }
+    best
 }
 
 enum Walk {
@@ -305,6 +341,29 @@ mod tests {
     use crate::level::corridor;
     use crate::reference::point_polygon_form_factor;
     use crate::shape::{CUBE2D, face_point};
+
+    #[test]
+    fn world_exit_is_the_local_exit_face() {
+        // rotated, non-uniformly scaled blocks; origins inside and on the boundary
+        for q in 0..4u32 {
+            let blk =
+                crate::level::Block { shape: 0, rotation: q, translation: [1.5, -0.25, 3.0], scale: [2.0, 0.5, 1.25] };
+            for i in 0..2000u64 {
+                let u = |k: u64| unit_f64(hash4(7, q as u64, i, k));
+                let l = [u(0), u(1), u(2)];
+                let l = if i % 5 == 0 { [0.0, l[1], l[2]] } else { l };
+                let z = 2.0 * u(3) - 1.0;
+                let ph = 2.0 * core::f64::consts::PI * u(4);
+                let r = (1.0 - z * z).sqrt();
+                let d = [r * ph.cos(), z, r * ph.sin()];
+                let p = blk.to_world(l);
+                let (f0, t0) = exit_face(blk.to_local(p).map(|x| x.clamp(0.0, 1.0)), blk.dir_to_local(d));
+                let (f1, t1) = world_exit(&blk, p, d, d.map(|x| 1.0 / x));
+                assert_eq!(f0, f1, "rotation {q}, ray {i}");
+                assert!((t0 - t1).abs() <= 1e-12 * (1.0 + t0), "rotation {q}, ray {i}: {t0} vs {t1}");
+            }
+        }
+    }
 
     fn missing() -> Vec<u8> {
         CUBE2D.iter().map(|s| s.missing).collect()

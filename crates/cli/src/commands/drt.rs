@@ -9,7 +9,7 @@ use crate::progress::{ProgressMode, Reporter};
 use anyhow::{Context, anyhow};
 use clap::Args;
 use penumbra_asset::AssetFile;
-use penumbra_config::clutter::{BoxFacesName, load_clutter};
+use penumbra_config::clutter::{BoxFacesName, ChartsName, load_clutter};
 use penumbra_transport::clutter::{BoxFaces, ClutterScene, ClutterShape, ClutterSpec, quat_y};
 use penumbra_transport::drt::{DrtDict, DrtParams, DrtShard, KcMode, bake_shard};
 use penumbra_transport::drt_asset::{DrtInputs, to_asset};
@@ -125,7 +125,24 @@ fn clutter_from_file(path: &Path) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliE
                 })?,
             };
             let h = blake3::hash(&bytes).to_hex().to_string();
-            (ClutterShape::Mesh(scene.mesh), json!({"mesh": rel, "mesh_blake3": h, "node": c.node}))
+            let lightmap = match c.charts {
+                Some(ChartsName::Lightmap) if scene.uv1.is_empty() => {
+                    return Err(CliError::input(anyhow!(
+                        "{}: clutter[{i}].charts = \"lightmap\": mesh {} has no TEXCOORD_1 on every primitive",
+                        path.display(),
+                        mp.display()
+                    )));
+                }
+                Some(ChartsName::BoxProjection) => false,
+                _ => !scene.uv1.is_empty(),
+            };
+            let charts = if lightmap { "lightmap" } else { "box-projection" };
+            let desc = json!({"mesh": rel, "mesh_blake3": h, "node": c.node, "charts": charts});
+            if lightmap {
+                (ClutterShape::Lightmapped { mesh: scene.mesh, uv: scene.uv1, res: c.lightmap_res }, desc)
+            } else {
+                (ClutterShape::Mesh(scene.mesh), desc)
+            }
         };
         let spec = ClutterSpec {
             name,
@@ -228,6 +245,12 @@ pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
     }
     let clutter = ClutterScene::with_basis(&specs, a.clutter_res as usize, a.clutter_basis_res as usize)
         .map_err(|e| CliError::input(anyhow!("clutter: {e}")))?;
+    // the atlas size a lightmapped mesh got (the engine addresses its texels by it)
+    for (d, &n) in desc.iter_mut().zip(&clutter.lightmap_res) {
+        if let (Some(o), true) = (d.as_object_mut(), n > 0) {
+            o.insert("lightmap_res".into(), json!(n));
+        }
+    }
     Ok(DrtScene { ops, dict, level, links, what, level_asset, clutter, clutter_json: desc, example_lights })
 }
 

@@ -75,7 +75,8 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
     let nodes = read_nodes(&doc).map_err(data)?;
     let skins = read_skins(&doc, &mut store).map_err(data)?;
     let animations = read_animations(&doc, &mut store).map_err(data)?;
-    let scene_shell = Scene { mesh: TriMesh::default(), nodes, skins, animations, bindings: Vec::new() };
+    let scene_shell =
+        Scene { mesh: TriMesh::default(), nodes, skins, animations, bindings: Vec::new(), uv1: Vec::new() };
     let rest = scene_shell.global_transforms(None, 0.0).map_err(|e| data(e.to_string()))?;
     let rest: Vec<DMat4> = rest.iter().map(DMat4::from_cols_array_2d).collect();
 
@@ -109,6 +110,8 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
 
     let mut mesh = TriMesh::default();
     let mut bindings: Vec<VertexBinding> = Vec::new();
+    // TEXCOORD_1 per vertex while every triangle primitive has it
+    let mut uv1: Option<Vec<[f64; 2]>> = Some(Vec::new());
     let mut triangle_primitives = 0usize;
     let mut morph_warned = false;
     for &(node_index, mesh_index) in &instances {
@@ -196,6 +199,35 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
                 }
                 _ => None,
             };
+            match (prim.get(&gltf::Semantic::TexCoords(1)), uv1.as_mut()) {
+                (Some(a), Some(out)) => {
+                    // glTF 2.0 §3.7.2.1: TEXCOORD_n is float, or normalized unsigned byte/short
+                    let ok = a.dimensions() == Dimensions::Vec2
+                        && (a.data_type() == DataType::F32
+                            || (a.normalized() && matches!(a.data_type(), DataType::U8 | DataType::U16)));
+                    if !ok {
+                        return Err(data(format!(
+                            "{label}: TEXCOORD_1 accessor must be Vec2 F32 or normalized U8/U16, found {}",
+                            type_name(a.data_type(), a.dimensions(), a.normalized())
+                        )));
+                    }
+                    let d = read_accessor(&a, &mut store, &format!("{label} TEXCOORD_1")).map_err(data)?;
+                    check_finite(&d, &format!("{label} TEXCOORD_1")).map_err(data)?;
+                    out.extend((0..vcount).map(|v| {
+                        let e = d.element(v);
+                        [e[0], e[1]]
+                    }));
+                }
+                (None, Some(_)) => {
+                    if triangle_primitives > 0 {
+                        report.warnings.push(format!(
+                            "{label} has no TEXCOORD_1 while earlier primitives do: lightmap UVs are ignored"
+                        ));
+                    }
+                    uv1 = None;
+                }
+                (_, None) => {}
+            }
             let base = mesh.positions.len();
             if base + vcount > u32::MAX as usize {
                 return Err(data("more than 2^32 vertices".into()));
@@ -262,7 +294,7 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
             report.source_triangles
         ))));
     }
-    Ok((Scene { mesh: clean, bindings, ..scene_shell }, report))
+    Ok((Scene { mesh: clean, bindings, uv1: uv1.unwrap_or_default(), ..scene_shell }, report))
 }
 
 /// The gltf crate's reference validation, except that required extensions it does not
