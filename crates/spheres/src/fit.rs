@@ -80,6 +80,10 @@ pub struct FitParams {
     pub seeding: lloyd::Seeding,
     /// Union-aware refinement after the Lloyd fit ([`crate::refine`]; on by default).
     pub refine: bool,
+    /// Also build the evenly spaced candidate ([`crate::cvt`]: a centroidal Voronoi
+    /// tessellation of the medial ridge), refine it like the SHEXP fit and keep whichever set
+    /// has the smaller union outside volume (on by default; only with `refine`).
+    pub cvt: bool,
     /// Union polish after the refinement ([`crate::polish`]; off by default: it lowers the
     /// union ratio on every shape measured, but costs about as much CPU again as the fit).
     pub polish: bool,
@@ -102,6 +106,7 @@ impl FitParams {
             iterations: 100,
             seed: 1,
             refine: true,
+            cvt: true,
             polish: false,
             seeding: lloyd::Seeding::Medial,
             hierarchy: false,
@@ -365,6 +370,17 @@ fn fit_count(
                         if crate::refine::union_outside(model, &s2) < crate::refine::union_outside(model, &s) {
                             (s, a) = (s2, a2);
                         }
+                    }
+                }
+                if p.cvt {
+                    // The evenly spaced candidate (see `cvt`): SHEXP's E leaves the slabs of a
+                    // tube uneven, a centroidal tessellation of the medial ridge does not.
+                    let seeds = lloyd::medial_centers(&ctx.samples, n)
+                        .unwrap_or_else(|| lloyd::init_centers(&ctx.samples, n, p.seed));
+                    let (cs, ca) = crate::cvt::fit_from(&ctx.samples, model, &seeds);
+                    let (s2, a2, _) = crate::refine::refine_to_count(&ctx.samples, model, &cs, &ca, n);
+                    if crate::refine::union_outside(model, &s2) < crate::refine::union_outside(model, &s) {
+                        (s, a) = (s2, a2);
                     }
                 }
                 (s, a)
