@@ -91,6 +91,9 @@ fn params_json(job: &SpheresJob) -> Value {
         if p.cvt && p.refine && p.method == Method::Lloyd {
             o.insert("cvt".into(), json!(true));
         }
+        if p.fine_refine && p.refine && p.method == Method::Lloyd {
+            o.insert("fine_refine".into(), json!(true));
+        }
         if count.is_none() {
             o.insert("max_count".into(), json!(p.max_count));
         }
