@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! cargo run --release -p penumbra-spheres --example fit_table -- [--grid 48] [--counts 16,32,64,128] \
-//!     [--octree] [--no-refine] [--medial] [--polish] [--iterations 100] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
+//!     [--octree] [--no-refine] [--no-cvt] [--no-fine] [--medial] [--polish] [--iterations 100] torus bent-tube thin-plate capsule-chain open-tube bunny_closed_3k rocker-arm ...
 //! ```
 //!
 //! Names without a path are procedural shapes (`torus`: minor/major 0.19, 576 triangles) or
@@ -46,6 +46,8 @@ fn main() {
     let mut methods = vec![Method::Lloyd];
     let mut refine = true;
     let mut polish = false;
+    let mut cvt = true;
+    let mut fine = true;
     let mut iterations = 100usize;
     let mut seeding = penumbra_spheres::lloyd::Seeding::KMeansPlusPlus;
     let mut names = Vec::new();
@@ -59,6 +61,8 @@ fn main() {
             "--octree" => methods.push(Method::Octree),
             "--no-refine" => refine = false,
             "--polish" => polish = true,
+            "--no-cvt" => cvt = false,
+            "--no-fine" => fine = false,
             "--iterations" => iterations = args.next().and_then(|g| g.parse().ok()).expect("--iterations N"),
             "--medial" => seeding = penumbra_spheres::lloyd::Seeding::Medial,
             _ => names.push(a),
@@ -66,7 +70,7 @@ fn main() {
     }
     let data = penumbra_testkit::shared_data_dir().join("meshes");
     println!(
-        "threads: {}, grid {grid}, refine {refine}, seeding {seeding:?}, iterations {iterations}",
+        "threads: {}, grid {grid}, refine {refine}, cvt {cvt}, fine {fine}, seeding {seeding:?}, iterations {iterations}",
         rayon::current_num_threads()
     );
     println!("| mesh | triangles | method | N | count | E | union | uncovered pts | s | cpu s | iterations |");
@@ -92,6 +96,8 @@ fn main() {
                 p.grid = grid;
                 p.refine = refine;
                 p.polish = polish;
+                p.cvt = cvt;
+                p.fine_refine = fine;
                 p.iterations = iterations;
                 p.seeding = seeding;
                 let t = Instant::now();

@@ -7,7 +7,8 @@
 //!
 //! - [`fit::fit`]: the whole bake (import is the CLI's job): canonical frame, signed-distance
 //!   grid, samples, the Lloyd fit ([`lloyd`], from medial-axis seeds) and its union-aware
-//!   refinement ([`refine`]), optionally the union polish ([`polish`]), or the octree
+//!   refinement ([`refine`]), the evenly spaced candidate ([`cvt`], kept when its union is
+//!   smaller), optionally the union polish ([`polish`]), or the octree
 //!   baseline ([`octree`]), f32 rounding that keeps the
 //!   set bounding, [`hierarchy`], [`skin`], and the [`metrics`]. Target searches
 //!   (`Target::Error`, `Target::Union`) bisect to the smallest requested count that meets them.
@@ -19,6 +20,7 @@
 //! itself runs in a canonical frame ([`frame`]) so that it is scale-invariant.
 
 pub mod asset;
+pub mod cvt;
 pub mod error;
 pub mod fit;
 pub mod frame;

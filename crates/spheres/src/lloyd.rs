@@ -249,7 +249,7 @@ pub fn fit_from(
 }
 
 /// k-means++ seeding over element positions (D² sampling with the seeded hash RNG).
-fn init_centers(samples: &Samples, n: usize, seed: u64) -> Vec<[f64; 3]> {
+pub(crate) fn init_centers(samples: &Samples, n: usize, seed: u64) -> Vec<[f64; 3]> {
     let reps: Vec<[f64; 3]> = samples.elements.iter().map(|e| e.rep).collect();
     let mut rng = ItemRng::new(seed, stage::SPHERES, 0x696e_6974);
     let first = rng.below(reps.len() as u64) as usize;
@@ -286,7 +286,7 @@ fn init_centers(samples: &Samples, n: usize, seed: u64) -> Vec<[f64; 3]> {
 /// plate). Spheres centred there bound a whole cross-section with the least bulge, which is
 /// what thin parts need and what surface-dominated k-means++ seeds miss. `None` when there
 /// are fewer ridge nodes than spheres.
-fn ridge_nodes(samples: &Samples) -> Option<Vec<usize>> {
+pub(crate) fn ridge_nodes(samples: &Samples) -> Option<Vec<usize>> {
     let first = samples.surface_elements;
     let depth = &samples.interior_depth;
     if depth.len() != samples.elements.len() - first || depth.is_empty() {
@@ -331,7 +331,7 @@ fn ridge_nodes(samples: &Samples) -> Option<Vec<usize>> {
     Some(ridge)
 }
 
-fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
+pub(crate) fn medial_centers(samples: &Samples, n: usize) -> Option<Vec<[f64; 3]>> {
     let ridge = ridge_nodes(samples)?;
     if ridge.len() < n {
         return None;

@@ -64,6 +64,9 @@ pub struct Samples {
     pub grid_nodes: [usize; 3],
     /// Grid spacing (canonical units).
     pub grid_spacing: f64,
+    /// For a finer set ([`Samples::build_finer`]): the element of [`Samples::build`]'s set
+    /// that each surface element lies in (empty for `build`'s own set).
+    pub coarse_parent: Vec<u32>,
     /// Flood-fill index: elements sorted by cell (`cell_elements[cell_start[c]..cell_start[c+1]]`).
     cell_start: Vec<u32>,
     cell_elements: Vec<u32>,
@@ -75,9 +78,28 @@ impl Samples {
     /// Builds the elements of `canonical` (the mesh in the canonical frame; `input` is the same
     /// mesh in input coordinates) and of the grid's interior nodes.
     pub fn build(canonical: &TriMesh, input: &TriMesh, frame: &Frame, grid: &SignedDistanceGrid) -> Self {
+        Self::build_finer(canonical, input, frame, grid, 1)
+    }
+
+    /// [`Samples::build`] with surface elements `divisor` times finer (at most the same cap on
+    /// their number). The bisection is the same longest-edge bisection continued further, so
+    /// every element of the finer set lies inside one element of the coarser one; the interior
+    /// elements are the same, in the same order, after the surface ones.
+    pub fn build_finer(
+        canonical: &TriMesh,
+        input: &TriMesh,
+        frame: &Frame,
+        grid: &SignedDistanceGrid,
+        divisor: usize,
+    ) -> Self {
         let spec = *grid.spec();
         let area = canonical.area();
-        let spacing = spec.h.max((area / MAX_SURFACE_ELEMENTS as f64 * 2.0).sqrt());
+        let cap = (area / MAX_SURFACE_ELEMENTS as f64 * 2.0).sqrt();
+        let spacing = (spec.h / divisor.max(1) as f64).max(cap);
+        // the spacing of `build`, to name the coarse element every finer one lies in
+        let coarse2 = spec.h.max(cap).powi(2);
+        let mut coarse_parent: Vec<u32> = Vec::new();
+        let mut coarse_count = 0u32;
         let nv = canonical.positions.len();
         // only vertices that some triangle uses
         let mut used = vec![false; nv];
@@ -98,11 +120,12 @@ impl Samples {
         }
         let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
         let mut elements = Vec::with_capacity(canonical.indices.len());
-        let mut stack: Vec<[u32; 3]> = Vec::new();
+        // (triangle, the coarse element it lies in once known)
+        let mut stack: Vec<([u32; 3], u32)> = Vec::new();
         let s2 = spacing * spacing;
         for t in &canonical.indices {
-            stack.push(t.map(|v| remap[v as usize]));
-            while let Some(tri) = stack.pop() {
+            stack.push((t.map(|v| remap[v as usize]), u32::MAX));
+            while let Some((tri, mut parent)) = stack.pop() {
                 let p = tri.map(|i| points[i as usize]);
                 let e2 = [
                     crate::sphere::dist2(p[0], p[1]),
@@ -116,9 +139,15 @@ impl Samples {
                 } else {
                     2
                 };
+                // depth-first, so coarse elements are met in the order `build` emits them
+                if parent == u32::MAX && e2[k] <= coarse2 {
+                    parent = coarse_count;
+                    coarse_count += 1;
+                }
                 if e2[k] <= s2 {
                     let rep = std::array::from_fn(|d| (p[0][d] + p[1][d] + p[2][d]) / 3.0);
                     elements.push(Element { points: tri, count: 3, rep });
+                    coarse_parent.push(parent);
                     continue;
                 }
                 // bisect edge (tri[k], tri[k+1]); children keep the orientation
@@ -131,8 +160,8 @@ impl Samples {
                     input_points.push(std::array::from_fn(|d| 0.5 * (qa[d] + qb[d])));
                     (points.len() - 1) as u32
                 });
-                stack.push([a, m, c]);
-                stack.push([m, b, c]);
+                stack.push(([a, m, c], parent));
+                stack.push(([m, b, c], parent));
             }
         }
         let surface_elements = elements.len();
@@ -183,6 +212,7 @@ impl Samples {
             surface_elements,
             surface_points,
             surface_spacing: spacing,
+            coarse_parent: if divisor > 1 { coarse_parent } else { Vec::new() },
             interior_nodes,
             interior_depth: Vec::new(),
             grid_nodes: spec.nodes,

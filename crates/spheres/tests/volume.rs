@@ -68,3 +68,57 @@ fn objective_matches_exact_monte_carlo() {
     check(&character(40), 48, 0.01);
     check(&torus([0.0; 3], 1.0, 0.35, 48, 24), 48, 0.01);
 }
+
+#[test]
+fn finer_samples_nest_in_the_coarse_elements() {
+    // every surface element of `build_finer` lies inside the coarse element it names (its
+    // corners have barycentric coordinates in [0, 1] there, in the coarse triangle's plane),
+    // every coarse element is covered, and the finer areas add up to the coarse ones
+    use penumbra_spheres::samples::Samples;
+    let mesh = torus([0.0; 3], 1.0, 0.19, 24, 12);
+    let frame = Frame::of(&mesh).unwrap();
+    let m = frame.canonical_mesh(&mesh);
+    let bvh = MeshBvh::build(&m).unwrap();
+    let wn = WindingNumber::new(&m);
+    let grid = SignedDistanceGrid::build(&m, &bvh, &wn, GridSpec::fit(&m.bounds().unwrap(), 24, 2), true);
+    let coarse = Samples::build(&m, &mesh, &frame, &grid);
+    let fine = Samples::build_finer(&m, &mesh, &frame, &grid, 2);
+    assert!(coarse.coarse_parent.is_empty());
+    assert!(
+        fine.surface_elements > 3 * coarse.surface_elements,
+        "{} vs {}",
+        fine.surface_elements,
+        coarse.surface_elements
+    );
+    assert_eq!(fine.coarse_parent.len(), fine.surface_elements);
+    assert_eq!(fine.elements.len() - fine.surface_elements, coarse.elements.len() - coarse.surface_elements);
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let area = |p: [[f64; 3]; 3]| {
+        let c = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        0.5 * dot(c, c).sqrt()
+    };
+    let tri = |s: &Samples, e: usize| s.elements[e].points.map(|k| s.points[k as usize]);
+    let mut fine_area = vec![0.0f64; coarse.surface_elements];
+    for e in 0..fine.surface_elements {
+        let parent = fine.coarse_parent[e] as usize;
+        let [a, b, c] = tri(&coarse, parent);
+        let n = cross(sub(b, a), sub(c, a));
+        let nn = dot(n, n);
+        for q in tri(&fine, e) {
+            // barycentric coordinates of q in (a, b, c) and its distance to their plane
+            let w = sub(q, a);
+            let u = dot(cross(w, sub(c, a)), n) / nn;
+            let v = dot(cross(sub(b, a), w), n) / nn;
+            let off = dot(w, n) / nn.sqrt();
+            assert!(u >= -1e-9 && v >= -1e-9 && u + v <= 1.0 + 1e-9 && off.abs() < 1e-12, "element {e}: {u} {v} {off}");
+        }
+        fine_area[parent] += area(tri(&fine, e));
+    }
+    for (k, fa) in fine_area.iter().enumerate() {
+        let ca = area(tri(&coarse, k));
+        assert!((fa - ca).abs() <= 1e-9 * ca.max(1e-12), "coarse element {k}: {fa} vs {ca}");
+    }
+}

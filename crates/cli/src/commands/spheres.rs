@@ -86,6 +86,14 @@ fn params_json(job: &SpheresJob) -> Value {
         if p.polish {
             o.insert("polish".into(), json!(true));
         }
+        // the evenly spaced candidate (issue 16) changes the default Lloyd fit's bytes, so a
+        // key made before it must not match
+        if p.cvt && p.refine && p.method == Method::Lloyd {
+            o.insert("cvt".into(), json!(true));
+        }
+        if p.fine_refine && p.refine && p.method == Method::Lloyd {
+            o.insert("fine_refine".into(), json!(true));
+        }
         if count.is_none() {
             o.insert("max_count".into(), json!(p.max_count));
         }
