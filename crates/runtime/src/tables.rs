@@ -98,8 +98,15 @@ pub struct ShTables<'a> {
     hyb_target_norm: f32,
     eta: [f32; 4],
     window: &'a [f32],
+    /// `local_light_zh` `[32, 64, n + 2]` (optional: older assets lack it).
+    local_light_zh: Option<&'a [f32]>,
     basis: ShBasis,
 }
+
+/// θ samples of the local-light table: `θ_i = (π/2)(i+1)/32` (SHEXP §7).
+pub const LOCAL_LIGHT_THETA: usize = 32;
+/// φ samples of the local-light table: `φ_j = π j/63`.
+pub const LOCAL_LIGHT_PHI: usize = 64;
 
 fn f32s<'a>(asset: &Asset<'a>, name: &'static str, dims: &[usize]) -> Result<&'a [f32], RuntimeError> {
     let s = asset.section(name).ok_or(RuntimeError::MissingSection(name))?;
@@ -175,6 +182,19 @@ impl<'a> ShTables<'a> {
             hyb_target_norm: dom[1],
             eta: [eta[0], eta[1], eta[2], eta[3]],
             window: f32s(asset, "cosine_window", &[order])?,
+            local_light_zh: match asset.section("local_light_zh") {
+                None => None,
+                Some(_) => {
+                    let t = f32s(asset, "local_light_zh", &[LOCAL_LIGHT_THETA, LOCAL_LIGHT_PHI, order + 2])?;
+                    if t.iter().any(|v| !v.is_finite()) {
+                        return Err(RuntimeError::BadSection {
+                            name: "local_light_zh",
+                            reason: "non-finite value".into(),
+                        });
+                    }
+                    Some(t)
+                }
+            },
             basis: ShBasis::new(order),
         })
     }
@@ -197,6 +217,12 @@ impl<'a> ShTables<'a> {
     /// Cosine window `cos(π/2 · l/h)`, `h = 2n` (SHEXP §7), per band.
     pub fn cosine_window(&self) -> &[f32] {
         self.window
+    }
+
+    /// The single-lobe ZH fit of the local-light table `L_H(θ_i, φ_j)` (SHEXP §7), row-major
+    /// `[32][64][n + 2]`: `(ψ, z_0 … z_{n−1}, fit error)`, or `None` if the asset has none.
+    pub fn local_light_zh(&self) -> Option<&'a [f32]> {
+        self.local_light_zh
     }
 
     /// The SH basis of this order.
