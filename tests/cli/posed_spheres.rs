@@ -201,6 +201,37 @@ fn verify_shadows_poses_fox() {
     for p in poses {
         assert!(p["nrmse_spheres_vs_mesh"].as_f64().unwrap() < 0.15, "{p}");
     }
+    // --skin-padding: radii grown from the animations' worst case keep every posed vertex
+    // inside (vertex check of the bake, 8 times per animation, other times than the 32 the
+    // padding sampled) and raise the posed surface coverage of verify
+    let sp = dir.path().join("fox-pad.sphr");
+    let bake = |out: &std::path::Path, extra: &[&str]| {
+        let (code, stdout, e) = run(penumbra()
+            .arg("spheres")
+            .arg(&fox)
+            .args(["--count", "12", "--grid", "20", "--iterations", "6", "--hierarchy", "--skin", "--json", "-o"])
+            .arg(out)
+            .args(extra));
+        assert_eq!(code, 0, "{e}");
+        serde_json::from_str::<Value>(&stdout).unwrap()
+    };
+    let plain = bake(&s, &[]);
+    let padded = bake(&sp, &["--skin-padding"]);
+    let (c0, c1) = (plain["skin_coverage_min"].as_f64().unwrap(), padded["skin_coverage_min"].as_f64().unwrap());
+    assert!(c0 < 0.95 && c1 >= 0.99, "skin coverage {c0} -> {c1}");
+    assert!(padded["skin_padding_max"].as_f64().unwrap() > 0.0 && plain.get("skin_padding_max").is_none());
+    let mut c = penumbra();
+    c.args(["verify", "shadows", "--tables"]).arg(&t).arg("--spheres").arg(&sp).arg("--mesh").arg(&fox);
+    c.args(["--env", "builtin:area-lights", "--resolution", "12", "--rays", "8", "--json"]);
+    c.args(["--animation", "Walk", "--frames", "3", "--hierarchy"]);
+    let (code, out, err) = run(&mut c);
+    assert_eq!(code, 0, "{err}");
+    let vp: Value = serde_json::from_str(&out).unwrap();
+    assert!(vp["posed_coverage"].as_f64().unwrap() > min, "{} vs {min}", vp["posed_coverage"]);
+    // --skin-padding needs --skin
+    let (code, _, err) =
+        run(penumbra().arg("spheres").arg(&fox).args(["--count", "4", "--skin-padding", "-o"]).arg(&sp));
+    assert_eq!(code, 2, "{err}");
     // bad animation name: exit 2, the names listed
     let (code, _, err) = verify(&["--animation", "Fly"]);
     assert_eq!(code, 2);
