@@ -6,6 +6,7 @@ mod bake;
 mod compat;
 mod drt;
 mod fiv;
+mod indirect;
 mod inspect;
 mod local_lights;
 mod mrt;

@@ -189,3 +189,32 @@ fn sweep_writes_table_json_and_plot() {
     let l = listing(&out);
     assert!(l.contains(&"spheres-4.sphr".to_string()) && l.contains(&"tables-o3.shtb".to_string()), "{l:?}");
 }
+
+#[test]
+fn verify_local_light_and_indirect_report_their_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let (t, s) = assets(dir.path());
+    // a light beside and above the character (bounds about ±1 around the origin, y up)
+    let (code, v, err) = verify(dir.path(), &t, &s, &["--local-light", "1.5,3.0,0.5,0.4", "--indirect"]);
+    assert_eq!(code, 0, "{err}");
+    for k in ["nrmse_local_light", "nrmse_local_light_vs_spheres", "nrmse_local_light_unshadowed"] {
+        let x = v[k].as_f64().unwrap_or(f64::NAN);
+        assert!(x > 0.0 && x < 0.5, "{k} = {x}: {v}");
+    }
+    for op in ["point", "d", "m"] {
+        let x = v["nrmse_indirect"][op].as_f64().unwrap_or(f64::NAN);
+        assert!(x > 0.0 && x < 1.0, "nrmse_indirect.{op} = {x}: {v}");
+        assert!(v["indirect_ns_per_receiver"][op].as_f64().unwrap() > 0.0);
+    }
+    assert!(v["indirect_reference_mean"].as_f64().unwrap() > 0.0, "the proxies reflect light: {v}");
+    // bad values: exit 2 naming the flag
+    let (code, _, err) = verify(dir.path(), &t, &s, &["--local-light", "1,2,3"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--local-light"), "{err}");
+    let (code, _, err) = verify(dir.path(), &t, &s, &["--local-light", "0,0,0,5"]);
+    assert_eq!(code, 2, "a light containing receivers");
+    assert!(err.contains("inside the light"), "{err}");
+    let (code, _, err) = verify(dir.path(), &t, &s, &["--indirect", "--albedo", "1.2,0,0"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--albedo"), "{err}");
+}

@@ -100,6 +100,8 @@ pub struct ShTables<'a> {
     window: &'a [f32],
     /// `local_light_zh` `[32, 64, n + 2]` (optional: older assets lack it).
     local_light_zh: Option<&'a [f32]>,
+    /// `indirect_m` `[K, 9, 9]` (optional).
+    indirect_m: Option<&'a [f32]>,
     basis: ShBasis,
 }
 
@@ -195,6 +197,10 @@ impl<'a> ShTables<'a> {
                     Some(t)
                 }
             },
+            indirect_m: match asset.section("indirect_m") {
+                None => None,
+                Some(_) => Some(f32s(asset, "indirect_m", &[k, 9, 9])?),
+            },
             basis: ShBasis::new(order),
         })
     }
@@ -223,6 +229,15 @@ impl<'a> ShTables<'a> {
     /// `[32][64][n + 2]`: `(ψ, z_0 … z_{n−1}, fit error)`, or `None` if the asset has none.
     pub fn local_light_zh(&self) -> Option<&'a [f32]> {
         self.local_light_zh
+    }
+
+    /// The exact indirect operator `M(α)` (IBPA eq. 16, order 3, canonical frame, row-major
+    /// 9×9: output radiance coefficient × input irradiance coefficient), linearly interpolated
+    /// in `α = sin θ`; `false` if the asset has no `indirect_m`.
+    pub fn indirect_m(&self, alpha: f32, out: &mut [f32; 81]) -> bool {
+        let Some(m) = self.indirect_m else { return false };
+        Self::lerp_row(m, 81, self.k, alpha, out);
+        true
     }
 
     /// The SH basis of this order.

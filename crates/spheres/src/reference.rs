@@ -166,6 +166,27 @@ pub fn spheres_hit_before(spheres: &[Sphere], o: [f64; 3], d: [f64; 3], t_max: f
     })
 }
 
+/// The nearest of `spheres` the ray `o + t·d`, `t > 0`, meets (unit `d`): index and `t`. An
+/// origin inside a sphere hits it at its exit point.
+pub fn nearest_sphere_hit(spheres: &[Sphere], o: [f64; 3], d: [f64; 3]) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    for (i, s) in spheres.iter().enumerate() {
+        let oc = [o[0] - s.center[0], o[1] - s.center[1], o[2] - s.center[2]];
+        let b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+        let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - s.radius * s.radius;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            continue;
+        }
+        let q = disc.sqrt();
+        let t = if -b - q > 0.0 { -b - q } else { -b + q };
+        if t > 0.0 && best.is_none_or(|(_, bt)| t < bt) {
+            best = Some((i, t));
+        }
+    }
+    best
+}
+
 /// Ray blocker with a range for the mesh truth of a spherical light.
 pub fn mesh_blocked_before(bvh: &MeshBvh, lift: f64) -> impl Fn([f64; 3], [f64; 3], f64) -> bool + '_ {
     move |o, d, t_max| {

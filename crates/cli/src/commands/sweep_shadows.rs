@@ -144,6 +144,8 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
                     animation: None,
                     time: None,
                     frames: None,
+                    indirect: false,
+                    albedo: "0.8,0.8,0.8".into(),
                     json: false,
                 };
                 let r = evaluate(&v)?;

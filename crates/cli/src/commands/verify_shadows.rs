@@ -32,6 +32,7 @@ use penumbra_runtime::shadows::rules::replace_parts;
 use penumbra_runtime::shadows::{CutBlocker, RuntimeExp, ShadowEvaluator, ShadowOptions, Sphere as RtSphere};
 use penumbra_runtime::{NodeRef, PosedSpheres, ShTables, SphereSet, SphereTree};
 
+mod indirect;
 mod local_light;
 pub mod pose;
 use penumbra_spheres::reference;
@@ -150,6 +151,14 @@ pub struct VerifyShadowsArgs {
     /// Evaluate N poses evenly spaced over the animation's key range, ends included.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
     pub frames: Option<u32>,
+    /// Also verify indirect light from the proxies (IBPA §5) by the point-sampled, averaged
+    /// `D(θ)` and exact `M(θ)` operators against a one-bounce path trace off the diffuse
+    /// spheres: reports `nrmse_indirect` per operator and each one's cost.
+    #[arg(long)]
+    pub indirect: bool,
+    /// Albedo of the proxies for `--indirect`, `R,G,B` in [0, 1].
+    #[arg(long, value_name = "R,G,B", default_value = "0.8,0.8,0.8")]
+    pub albedo: String,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -430,6 +439,9 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             a.tables.display()
         )));
     }
+    let albedo = a.indirect.then(|| parse_albedo(&a.albedo)).transpose()?;
+    let env_sh3 = if a.indirect { env_rgb_sh(&env, 3) } else { Vec::new() };
+    let indirect_in = albedo.map(|al| (al, env_sh3.as_slice()));
     let env_ctx = EnvCtx { env: &env, light_bl: &light_bl, eval: ShEval::new(order) };
     let mut frames: Vec<FrameOut> = Vec::with_capacity(poses.len());
     for &p in &poses {
@@ -442,7 +454,7 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
                 scene.posed_mesh(p.0, p.1).map_err(|e| CliError::input(anyhow!("{}: {e}", a.mesh.display())))?
             }
         };
-        frames.push(evaluate_frame(a, &ev, acc_ev.as_ref(), &tree, &mesh, &env_ctx, local)?);
+        frames.push(evaluate_frame(a, &ev, acc_ev.as_ref(), &tree, &mesh, &env_ctx, local, indirect_in)?);
         if let Some(f) = frames.last_mut() {
             f.pose = p;
             if p.0.is_some() {
@@ -584,7 +596,22 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
     if let (Some(o), Some(Value::Object(l))) = (json.as_object_mut(), local_json) {
         o.extend(l);
     }
+    if let (Some(o), Some(al)) = (json.as_object_mut(), albedo) {
+        let outs: Vec<&indirect::IndirectOut> = frames.iter().filter_map(|f| f.indirect.as_ref()).collect();
+        if let Value::Object(l) = indirect::report(&outs, al) {
+            o.extend(l);
+        }
+    }
     Ok(ShadowReport { json, runtime, mesh_truth })
+}
+
+/// Parses `--albedo R,G,B`.
+fn parse_albedo(s: &str) -> Result<[f64; 3], CliError> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().unwrap_or_default();
+    if v.len() != 3 || v.iter().any(|x| !(0.0..=1.0).contains(x)) {
+        return Err(CliError::input(anyhow!("--albedo {s}: expected R,G,B with each in [0, 1]")));
+    }
+    Ok([v[0], v[1], v[2]])
 }
 
 /// The environment light of a verification.
@@ -622,6 +649,7 @@ struct FrameOut {
     clusters: usize,
     coverage: Option<f64>,
     local: Option<LocalOut>,
+    indirect: Option<indirect::IndirectOut>,
 }
 
 /// The runtime, product space and the references for one pose of the mesh and the spheres.
@@ -633,6 +661,7 @@ fn evaluate_frame(
     mesh: &TriMesh,
     env: &EnvCtx<'_>,
     local: Option<local_light::Light>,
+    indirect_in: Option<([f64; 3], &[[f64; 3]])>,
 ) -> Result<FrameOut, CliError> {
     let order = ev.order();
     let recv = receivers(mesh, a)?;
@@ -749,6 +778,9 @@ fn evaluate_frame(
         .collect();
     let local =
         local.map(|l| local_light::evaluate(ev, l, &recv, &leaves, &spheres64, &bvh, lift, k, a.seed)).transpose()?;
+    let indirect_out = indirect_in
+        .map(|(al, sh3)| indirect::evaluate(ev, al, sh3, &recv, &leaves, &spheres64, k, a.seed))
+        .transpose()?;
     Ok(FrameOut {
         pose: (None, 0.0),
         runtime,
@@ -765,6 +797,7 @@ fn evaluate_frame(
         clusters: clusters.len(),
         coverage: None,
         local,
+        indirect: indirect_out,
         recv,
     })
 }

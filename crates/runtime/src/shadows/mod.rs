@@ -33,7 +33,7 @@ pub mod rules;
 pub mod shade;
 
 pub use batch::LANES;
-pub use indirect::Shaded;
+pub use indirect::{IndirectOperator, Shaded};
 pub use local_light::LocalLight;
 
 pub use ratio::{CutBlocker, RATIO_BAND_FLOOR, RATIO_BOUND, ratio_vector};
@@ -123,6 +123,7 @@ pub struct ShadowEvaluator<'a> {
     /// Order-3 irradiance SH of the (unwindowed) light per channel: `L̃ = Â_l L_lm`.
     irradiance_sh: [[f32; 9]; 3],
     basis3: crate::sh::ShBasis,
+    rot3: indirect::Rot3,
 }
 
 impl<'a> ShadowEvaluator<'a> {
@@ -154,16 +155,9 @@ impl<'a> ShadowEvaluator<'a> {
                 irradiance_sh[c][i] = light[i][c] * shade::clamped_cosine_star(band(i));
             }
         }
-        Self {
-            tables,
-            options,
-            order,
-            light_matrix,
-            cosine_star,
-            window,
-            irradiance_sh,
-            basis3: crate::sh::ShBasis::new(3),
-        }
+        let basis3 = crate::sh::ShBasis::new(3);
+        let rot3 = indirect::Rot3::new(&basis3);
+        Self { tables, options, order, light_matrix, cosine_star, window, irradiance_sh, basis3, rot3 }
     }
 
     /// The tables.
