@@ -71,13 +71,20 @@ fn verify_reports_every_error_with_honest_values() {
     assert_eq!(code, 0, "{err}");
     // 12 leaves: the cut must replace some of them by nodes on this plane (a cut that always
     // listed all 12 would report exactly 12)
-    let bpr = h["blockers_per_receiver"].as_f64().unwrap();
+    let bpr = h["candidate_blockers_per_receiver"].as_f64().unwrap();
     assert!(bpr > 1.0 && bpr < 12.0, "blockers per receiver {bpr}: {h}");
+    assert!(h["blockers_per_receiver"].as_f64().unwrap() <= bpr, "{h}");
     assert!((h["nrmse_vs_mesh"].as_f64().unwrap() - v["nrmse_vs_mesh"].as_f64().unwrap()).abs() < 0.05, "{h}");
     // mesh receivers (self-shadowing) run too
     let (code, m, err) = verify(dir.path(), &t, &s, &["--receivers", "mesh", "--max-receivers", "200"]);
     assert_eq!(code, 0, "{err}");
     assert!(m["receivers"].as_u64().unwrap() <= 200 && m["receivers"].as_u64().unwrap() > 100);
+    // on its own surface a receiver has spheres behind its tangent plane or around it, which
+    // the self-shadow rules drop: fewer accumulated than handed over (all 12 leaves)
+    assert_eq!(m["candidate_blockers_per_receiver"], 12.0);
+    let acc = m["blockers_per_receiver"].as_f64().unwrap();
+    assert!(acc > 0.5 && acc < 11.0, "accumulated blockers per receiver {acc}: {m}");
+    assert_eq!(v["candidate_blockers_per_receiver"], 12.0);
     // accumulating at a higher order is closer to the sphere truth (SHEXP Fig. 7e)
     let t5 = dir.path().join("t5.shtb");
     let (code, _, e) = run(penumbra().args(["tables", "--order", "5", "--theta-samples", "64", "-o"]).arg(&t5));

@@ -898,9 +898,19 @@ pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
             f("nrmse_vs_mesh_full"),
             f("nrmse_vs_spheres"),
             f("nrmse_log_vs_product"),
-            f("ns_per_receiver"),
+            v["ns_per_receiver"].as_f64().or_else(|| v["ns_per_receiver_scalar"].as_f64()).unwrap_or(f64::NAN),
             f("blockers_per_receiver"),
         );
+        if let Some(x) = v["nrmse_local_light"].as_f64() {
+            eprintln!("  local light: NRMSE vs mesh {x:.4}  vs spheres {:.4}", f("nrmse_local_light_vs_spheres"));
+        }
+        if let Some(x) = v["posed_coverage"].as_f64() {
+            eprintln!("  posed coverage ≥ {x:.4} over {} poses", v["poses"].as_array().map_or(0, Vec::len));
+        }
+        if v["nrmse_indirect"].is_object() {
+            let g = |k: &str| v["nrmse_indirect"][k].as_f64().unwrap_or(f64::NAN);
+            eprintln!("  indirect NRMSE: point {:.4}  averaged {:.4}  exact {:.4}", g("point"), g("d"), g("m"));
+        }
     }
     if gate_failed {
         eprintln!(
