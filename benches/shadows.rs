@@ -10,7 +10,7 @@ use penumbra_asset::OwnedAsset;
 use penumbra_geometry::Scene;
 use penumbra_math::progress::NoProgress;
 use penumbra_runtime::shadows::{CutBlocker, ShadowEvaluator, ShadowOptions, Sphere};
-use penumbra_runtime::{NodeRef, ShTables, SphereSet};
+use penumbra_runtime::{NodeRef, ShTables, SphereSet, SphereTree};
 use std::hint::black_box;
 use std::time::Duration;
 

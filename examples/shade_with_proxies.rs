@@ -12,7 +12,7 @@
 
 use penumbra_asset::AssetFile;
 use penumbra_runtime::shadows::{CutBlocker, ShadowEvaluator, ShadowOptions, Sphere};
-use penumbra_runtime::{NodeRef, ShTables, SphereSet};
+use penumbra_runtime::{NodeRef, ShTables, SphereSet, SphereTree};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

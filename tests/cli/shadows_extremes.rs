@@ -5,8 +5,8 @@
 
 use penumbra_asset::OwnedAsset;
 use penumbra_math::sh::{ShEval, zh_rotate};
-use penumbra_runtime::ShTables;
 use penumbra_runtime::shadows::{RuntimeExp, ShadowEvaluator, ShadowOptions, Sphere};
+use penumbra_runtime::{ShTables, SphereTree};
 use penumbra_sh::gamma::TripleProduct;
 use penumbra_sh::tables::{NoProgress, TablesParams, bake};
 use penumbra_sh::tables_asset::to_asset;

@@ -51,7 +51,9 @@ fn spheres_json_has_the_issue_keys_with_honest_values() {
     assert!(u > 0.0 && u <= e + 4.0 * v["outside_volume_ratio_stderr"].as_f64().unwrap(), "{u} vs {e}");
     assert_eq!(v["max_uncovered_distance"].as_f64().unwrap(), 0.0);
     assert!(v["uncovered_ratio"].as_f64().unwrap() < 1e-3);
-    assert_eq!(v["hierarchy_levels"], 3, "12 leaves → 3 → 1");
+    assert_eq!(v["hierarchy_levels"], 2, "12 leaves → 3 → 1: two internal levels");
+    assert_eq!(v["hierarchy_levels_with_leaves"], 3);
+    assert!(v["requested_count"] == 12 && v["settled_count"].is_null(), "{stdout}");
     assert!(v["skin_coverage_min"].is_null());
     assert_eq!(v["output"].as_str().unwrap(), out.display().to_string());
     // the asset holds what the JSON says
@@ -59,7 +61,10 @@ fn spheres_json_has_the_issue_keys_with_honest_values() {
     let a = file.asset();
     let s = a.section("spheres").unwrap();
     assert_eq!(s.dims(), &[12, 4]);
+    // the JSON key counts what the SPHR section holds
+    let levels = a.section("hierarchy_levels").unwrap().dims()[0];
     assert_eq!(a.section("hierarchy_levels").unwrap().dims(), &[2, 2]);
+    assert_eq!(v["hierarchy_levels"], levels);
     let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
     assert_eq!(meta["kind"], "SPHR");
     assert!(
@@ -245,7 +250,8 @@ fn spheres_target_search_exit_codes() {
     let (code, stdout, stderr) = fit(&out, &["--target-union", "0.8", "--json"]);
     assert_eq!(code, 0, "{stderr}");
     let v: Value = serde_json::from_str(&stdout).unwrap();
-    let n = v["requested_count"].as_u64().unwrap();
+    let n = v["settled_count"].as_u64().unwrap();
+    assert!(v["requested_count"].is_null(), "target mode requests no count: {stdout}");
     assert!(v["count"].as_u64().unwrap() <= n);
     assert_eq!(v["target_met"], true);
     assert!(v["union_outside_ratio"].as_f64().unwrap() <= 0.8);

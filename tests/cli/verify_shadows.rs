@@ -71,13 +71,20 @@ fn verify_reports_every_error_with_honest_values() {
     assert_eq!(code, 0, "{err}");
     // 12 leaves: the cut must replace some of them by nodes on this plane (a cut that always
     // listed all 12 would report exactly 12)
-    let bpr = h["blockers_per_receiver"].as_f64().unwrap();
+    let bpr = h["candidate_blockers_per_receiver"].as_f64().unwrap();
     assert!(bpr > 1.0 && bpr < 12.0, "blockers per receiver {bpr}: {h}");
+    assert!(h["blockers_per_receiver"].as_f64().unwrap() <= bpr, "{h}");
     assert!((h["nrmse_vs_mesh"].as_f64().unwrap() - v["nrmse_vs_mesh"].as_f64().unwrap()).abs() < 0.05, "{h}");
     // mesh receivers (self-shadowing) run too
     let (code, m, err) = verify(dir.path(), &t, &s, &["--receivers", "mesh", "--max-receivers", "200"]);
     assert_eq!(code, 0, "{err}");
     assert!(m["receivers"].as_u64().unwrap() <= 200 && m["receivers"].as_u64().unwrap() > 100);
+    // on its own surface a receiver has spheres behind its tangent plane or around it, which
+    // the self-shadow rules drop: fewer accumulated than handed over (all 12 leaves)
+    assert_eq!(m["candidate_blockers_per_receiver"], 12.0);
+    let acc = m["blockers_per_receiver"].as_f64().unwrap();
+    assert!(acc > 0.5 && acc < 11.0, "accumulated blockers per receiver {acc}: {m}");
+    assert_eq!(v["candidate_blockers_per_receiver"], 12.0);
     // accumulating at a higher order is closer to the sphere truth (SHEXP Fig. 7e)
     let t5 = dir.path().join("t5.shtb");
     let (code, _, e) = run(penumbra().args(["tables", "--order", "5", "--theta-samples", "64", "-o"]).arg(&t5));
@@ -188,4 +195,33 @@ fn sweep_writes_table_json_and_plot() {
     assert!(svg.starts_with("<svg") && svg.matches("<circle").count() == 4, "two panels × two points");
     let l = listing(&out);
     assert!(l.contains(&"spheres-4.sphr".to_string()) && l.contains(&"tables-o3.shtb".to_string()), "{l:?}");
+}
+
+#[test]
+fn verify_local_light_and_indirect_report_their_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let (t, s) = assets(dir.path());
+    // a light beside and above the character (bounds about ±1 around the origin, y up)
+    let (code, v, err) = verify(dir.path(), &t, &s, &["--local-light", "1.5,3.0,0.5,0.4", "--indirect"]);
+    assert_eq!(code, 0, "{err}");
+    for k in ["nrmse_local_light", "nrmse_local_light_vs_spheres", "nrmse_local_light_unshadowed"] {
+        let x = v[k].as_f64().unwrap_or(f64::NAN);
+        assert!(x > 0.0 && x < 0.5, "{k} = {x}: {v}");
+    }
+    for op in ["point", "d", "m"] {
+        let x = v["nrmse_indirect"][op].as_f64().unwrap_or(f64::NAN);
+        assert!(x > 0.0 && x < 1.0, "nrmse_indirect.{op} = {x}: {v}");
+        assert!(v["indirect_ns_per_receiver"][op].as_f64().unwrap() > 0.0);
+    }
+    assert!(v["indirect_reference_mean"].as_f64().unwrap() > 0.0, "the proxies reflect light: {v}");
+    // bad values: exit 2 naming the flag
+    let (code, _, err) = verify(dir.path(), &t, &s, &["--local-light", "1,2,3"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--local-light"), "{err}");
+    let (code, _, err) = verify(dir.path(), &t, &s, &["--local-light", "0,0,0,5"]);
+    assert_eq!(code, 2, "a light containing receivers");
+    assert!(err.contains("inside the light"), "{err}");
+    let (code, _, err) = verify(dir.path(), &t, &s, &["--indirect", "--albedo", "1.2,0,0"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--albedo"), "{err}");
 }

@@ -6,7 +6,7 @@ use crate::{
 };
 use core::ffi::c_char;
 use penumbra_runtime::shadows::{CutBlocker, RuntimeExp, ShadowEvaluator, ShadowOptions, Sphere};
-use penumbra_runtime::{NodeRef, ShTables, SphereSet};
+use penumbra_runtime::{NodeRef, ShTables, SphereSet, SphereTree};
 
 /// A blocker sphere: centre and radius (the runtime's `Sphere`, same layout).
 #[repr(C)]

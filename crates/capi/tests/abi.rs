@@ -8,7 +8,7 @@ mod common;
 use penumbra_asset::AssetFile;
 use penumbra_capi::*;
 use penumbra_runtime::shadows::{ShadowEvaluator, ShadowOptions, Sphere};
-use penumbra_runtime::{ShTables, SphereSet};
+use penumbra_runtime::{ShTables, SphereSet, SphereTree};
 use std::ptr;
 
 fn corpus(name: &str) -> AssetFile {

@@ -221,6 +221,10 @@ pub struct SpheresFitArgs {
     /// Also compute per-sphere bone weights (skinned glTF) and check them on the animations.
     #[arg(long)]
     pub skin: bool,
+    /// With --skin: pad sphere radii so the set stays bounding in every animation pose
+    /// (32 sampled times per animation; issue #14).
+    #[arg(long, requires = "skin")]
+    pub skin_padding: bool,
     /// Fit only the glTF node(s) with this name.
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,

@@ -397,6 +397,15 @@ impl Scene {
         })
     }
 
+    /// Per node, `G(t)·G(rest)⁻¹`: the node's global transform in the pose times the inverse
+    /// of its rest-pose global transform (column-major), the matrix that moves a rest-pose
+    /// point bound to the node into the pose (SPHR skin convention, SHEXP §6.2).
+    pub fn pose_deltas(&self, animation: Option<usize>, time: f64) -> Result<Vec<Mat4>, PoseError> {
+        let rest = self.global_dmat4(None, 0.0)?;
+        let now = self.global_dmat4(animation, time)?;
+        Ok(now.iter().zip(&rest).map(|(n, r)| (*n * r.inverse()).to_cols_array_2d()).collect())
+    }
+
     /// The mesh at a pose: `mesh` with positions replaced by [`Scene::pose`].
     pub fn posed_mesh(&self, animation: Option<usize>, time: f64) -> Result<TriMesh, PoseError> {
         Ok(TriMesh { positions: self.pose(animation, time)?, indices: self.mesh.indices.clone() })

@@ -7,7 +7,8 @@
 //!   self-shadow replacement rules, exponentiation, windowed diffuse shading, indirect light
 //!   from proxies, hierarchy cuts with ratio vectors, receiver batches).
 //! - [`SphereSet`]: a validated view of an `SPHR` sphere-proxy asset (leaves, hierarchy, skin)
-//!   and its cut for a receiver cluster (SHEXP §6.3, eq. 36).
+//!   and its cut for a receiver cluster (SHEXP §6.3, eq. 36); [`PosedSpheres`]: the set in
+//!   an animation pose from its skin influences, hierarchy refitted (SHEXP §6.2–6.3).
 //! - [`fiv`]: soft shadows from FIV occlusion tables (`FIVT`): irradiance cube lookup,
 //!   trilinear FIV lookup with inside flags, partial occluders, overlap correction,
 //!   self-shadowing (FIV §4.3).
@@ -20,9 +21,11 @@ pub mod fiv;
 pub mod mrt;
 pub mod sh;
 pub mod shadows;
+pub mod sphere_pose;
 pub mod sphere_set;
 mod tables;
 
 pub use error::RuntimeError;
-pub use sphere_set::{NodeRef, SphereSet};
-pub use tables::{MAX_ORDER, NEAR_CONTACT_ALPHA, ShTables};
+pub use sphere_pose::PosedSpheres;
+pub use sphere_set::{NodeRef, SphereSet, SphereTree};
+pub use tables::{LOCAL_LIGHT_PHI, LOCAL_LIGHT_THETA, MAX_ORDER, NEAR_CONTACT_ALPHA, ShTables};

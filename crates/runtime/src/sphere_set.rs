@@ -130,21 +130,22 @@ impl<'a> SphereSet<'a> {
         out.extend((0..self.len()).map(|i| self.leaf(i)));
     }
 
-    /// Internal levels (0 without a hierarchy).
+    /// Internal levels (0 without a hierarchy): the rows of the SPHR `hierarchy_levels`
+    /// section. Counting the leaves, the tree has `depth() + 1` levels.
     pub fn depth(&self) -> usize {
         self.levels.len() / 2
     }
 
-    /// The sphere of a node.
+    /// Internal nodes (all levels).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len() / 4
+    }
+
+    /// The stored sphere of internal node `i`.
     #[inline]
-    pub fn sphere(&self, node: NodeRef) -> Sphere {
-        match node {
-            NodeRef::Leaf(i) => self.leaf(i as usize),
-            NodeRef::Node(i) => {
-                let s = &self.nodes[4 * i as usize..4 * i as usize + 4];
-                Sphere { center: [s[0], s[1], s[2]], radius: s[3] }
-            }
-        }
+    fn node(&self, i: u32) -> Sphere {
+        let s = &self.nodes[4 * i as usize..4 * i as usize + 4];
+        Sphere { center: [s[0], s[1], s[2]], radius: s[3] }
     }
 
     /// The level of internal node `i`.
@@ -152,30 +153,19 @@ impl<'a> SphereSet<'a> {
         (0..self.depth()).find(|&k| i < self.levels[2 * k] + self.levels[2 * k + 1]).unwrap_or(0)
     }
 
-    /// Calls `f` on every child of internal node `i`.
-    pub fn for_children(&self, i: u32, mut f: impl FnMut(NodeRef)) {
-        let k = self.level_of(i);
-        let (first, count) = (self.children[2 * i as usize], self.children[2 * i as usize + 1]);
-        for c in first..first + count {
-            if k + 1 < self.depth() {
-                f(NodeRef::Node(self.levels[2 * (k + 1)] + c));
-            } else {
-                f(NodeRef::Leaf(c));
-            }
-        }
+    /// `(first node, node count)` of internal level `k` (root level 0).
+    pub(crate) fn level(&self, k: usize) -> (u32, u32) {
+        (self.levels[2 * k], self.levels[2 * k + 1])
     }
 
-    /// Calls `f` on every leaf below `node` (the node itself if it is a leaf).
-    pub fn for_leaves_below(&self, node: NodeRef, f: &mut impl FnMut(u32)) {
-        match node {
-            NodeRef::Leaf(i) => f(i),
-            NodeRef::Node(i) => self.for_children(i, |c| self.for_leaves_below(c, f)),
-        }
+    /// `(first, count)` of internal node `i`'s children in the level below (or the leaves).
+    pub(crate) fn child_range(&self, i: u32) -> (u32, u32) {
+        (self.children[2 * i as usize], self.children[2 * i as usize + 1])
     }
 
-    /// The root (or, without a hierarchy, nothing: cuts then use the leaves).
-    pub fn root(&self) -> Option<NodeRef> {
-        (self.depth() > 0).then_some(NodeRef::Node(0))
+    /// Whether the asset holds skin influences.
+    pub fn is_skinned(&self) -> bool {
+        self.skin_nodes.is_some()
     }
 
     /// Skin influences of leaf `i`: glTF node indices and weights (`None` without skin data).
@@ -185,17 +175,57 @@ impl<'a> SphereSet<'a> {
         let b = &w[4 * i..4 * i + 4];
         Some(([a[0], a[1], a[2], a[3]], [b[0], b[1], b[2], b[3]]))
     }
+}
+
+/// A sphere tree a cut can descend: the stored set ([`SphereSet`]) or a posed one
+/// ([`PosedSpheres`](crate::sphere_pose::PosedSpheres)), which shares the stored topology.
+pub trait SphereTree {
+    /// Number of leaf spheres.
+    fn leaf_count(&self) -> usize;
+
+    /// The sphere of a node.
+    fn sphere(&self, node: NodeRef) -> Sphere;
+
+    /// The topology (levels and child ranges).
+    fn topology(&self) -> &SphereSet<'_>;
+
+    /// The root (or, without a hierarchy, nothing: cuts then use the leaves).
+    fn root(&self) -> Option<NodeRef> {
+        (self.topology().depth() > 0).then_some(NodeRef::Node(0))
+    }
+
+    /// Calls `f` on every child of internal node `i`.
+    fn for_children(&self, i: u32, mut f: impl FnMut(NodeRef)) {
+        let t = self.topology();
+        let k = t.level_of(i);
+        let (first, count) = (t.children[2 * i as usize], t.children[2 * i as usize + 1]);
+        for c in first..first + count {
+            if k + 1 < t.depth() {
+                f(NodeRef::Node(t.levels[2 * (k + 1)] + c));
+            } else {
+                f(NodeRef::Leaf(c));
+            }
+        }
+    }
+
+    /// Calls `f` on every leaf below `node` (the node itself if it is a leaf).
+    fn for_leaves_below(&self, node: NodeRef, f: &mut impl FnMut(u32)) {
+        match node {
+            NodeRef::Leaf(i) => f(i),
+            NodeRef::Node(i) => self.for_children(i, |c| self.for_leaves_below(c, f)),
+        }
+    }
 
     /// The blocker list of a receiver cluster bounded by the sphere `(p_r, r_r)` (SHEXP §6.3,
     /// eq. 36): descending from the root, a node enters the list when it subtends less than
     /// `θ_max` over the whole cluster, `r < sin θ_max (‖P − p_R‖ − r_R)`; otherwise its
     /// children are tested; leaves always enter. Without a hierarchy the list is all leaves.
     /// `out` is cleared first; `stack` is scratch (reused across clusters).
-    pub fn cut(&self, p_r: [f32; 3], r_r: f32, sin_theta_max: f32, stack: &mut Vec<NodeRef>, out: &mut Vec<NodeRef>) {
+    fn cut(&self, p_r: [f32; 3], r_r: f32, sin_theta_max: f32, stack: &mut Vec<NodeRef>, out: &mut Vec<NodeRef>) {
         out.clear();
         stack.clear();
         match self.root() {
-            None => out.extend((0..self.len() as u32).map(NodeRef::Leaf)),
+            None => out.extend((0..self.leaf_count() as u32).map(NodeRef::Leaf)),
             Some(r) => stack.push(r),
         }
         while let Some(node) = stack.pop() {
@@ -213,5 +243,23 @@ impl<'a> SphereSet<'a> {
                 }
             }
         }
+    }
+}
+
+impl SphereTree for SphereSet<'_> {
+    fn leaf_count(&self) -> usize {
+        self.len()
+    }
+
+    #[inline]
+    fn sphere(&self, node: NodeRef) -> Sphere {
+        match node {
+            NodeRef::Leaf(i) => self.leaf(i as usize),
+            NodeRef::Node(i) => self.node(i),
+        }
+    }
+
+    fn topology(&self) -> &SphereSet<'_> {
+        self
     }
 }

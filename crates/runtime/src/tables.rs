@@ -98,8 +98,17 @@ pub struct ShTables<'a> {
     hyb_target_norm: f32,
     eta: [f32; 4],
     window: &'a [f32],
+    /// `local_light_zh` `[32, 64, n + 2]` (optional: older assets lack it).
+    local_light_zh: Option<&'a [f32]>,
+    /// `indirect_m` `[K, 9, 9]` (optional).
+    indirect_m: Option<&'a [f32]>,
     basis: ShBasis,
 }
+
+/// θ samples of the local-light table: `θ_i = (π/2)(i+1)/32` (SHEXP §7).
+pub const LOCAL_LIGHT_THETA: usize = 32;
+/// φ samples of the local-light table: `φ_j = π j/63`.
+pub const LOCAL_LIGHT_PHI: usize = 64;
 
 fn f32s<'a>(asset: &Asset<'a>, name: &'static str, dims: &[usize]) -> Result<&'a [f32], RuntimeError> {
     let s = asset.section(name).ok_or(RuntimeError::MissingSection(name))?;
@@ -175,6 +184,23 @@ impl<'a> ShTables<'a> {
             hyb_target_norm: dom[1],
             eta: [eta[0], eta[1], eta[2], eta[3]],
             window: f32s(asset, "cosine_window", &[order])?,
+            local_light_zh: match asset.section("local_light_zh") {
+                None => None,
+                Some(_) => {
+                    let t = f32s(asset, "local_light_zh", &[LOCAL_LIGHT_THETA, LOCAL_LIGHT_PHI, order + 2])?;
+                    if t.iter().any(|v| !v.is_finite()) {
+                        return Err(RuntimeError::BadSection {
+                            name: "local_light_zh",
+                            reason: "non-finite value".into(),
+                        });
+                    }
+                    Some(t)
+                }
+            },
+            indirect_m: match asset.section("indirect_m") {
+                None => None,
+                Some(_) => Some(f32s(asset, "indirect_m", &[k, 9, 9])?),
+            },
             basis: ShBasis::new(order),
         })
     }
@@ -197,6 +223,21 @@ impl<'a> ShTables<'a> {
     /// Cosine window `cos(π/2 · l/h)`, `h = 2n` (SHEXP §7), per band.
     pub fn cosine_window(&self) -> &[f32] {
         self.window
+    }
+
+    /// The single-lobe ZH fit of the local-light table `L_H(θ_i, φ_j)` (SHEXP §7), row-major
+    /// `[32][64][n + 2]`: `(ψ, z_0 … z_{n−1}, fit error)`, or `None` if the asset has none.
+    pub fn local_light_zh(&self) -> Option<&'a [f32]> {
+        self.local_light_zh
+    }
+
+    /// The exact indirect operator `M(α)` (IBPA eq. 16, order 3, canonical frame, row-major
+    /// 9×9: output radiance coefficient × input irradiance coefficient), linearly interpolated
+    /// in `α = sin θ`; `false` if the asset has no `indirect_m`.
+    pub fn indirect_m(&self, alpha: f32, out: &mut [f32; 81]) -> bool {
+        let Some(m) = self.indirect_m else { return false };
+        Self::lerp_row(m, 81, self.k, alpha, out);
+        true
     }
 
     /// The SH basis of this order.

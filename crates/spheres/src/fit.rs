@@ -94,6 +94,9 @@ pub struct FitParams {
     pub hierarchy: bool,
     /// Compute skin weights (needs a skinned scene).
     pub skin: bool,
+    /// With `skin`: pad each sphere's radius so the set stays bounding in every sampled
+    /// animation pose ([`skin::pose_padding`]).
+    pub skin_padding: bool,
     /// Measurement sample counts.
     pub metrics: MetricSettings,
 }
@@ -115,6 +118,7 @@ impl FitParams {
             seeding: lloyd::Seeding::Medial,
             hierarchy: false,
             skin: false,
+            skin_padding: false,
             metrics: MetricSettings::default(),
         }
     }
@@ -255,6 +259,8 @@ pub struct FitResult {
     pub skin: Option<Vec<SphereSkin>>,
     /// Posed coverage of the skinned set.
     pub skin_coverage: Option<SkinCoverage>,
+    /// Per-sphere radius padding added for the animations (`skin_padding`), input units.
+    pub skin_padding: Option<Vec<f64>>,
     /// Measured quality.
     pub metrics: Metrics,
     /// Report.
@@ -531,6 +537,13 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
     if p.skin && !scene.is_skinned() {
         return Err(skin::SkinError::NotSkinned.into());
     }
+    if p.skin_padding && !p.skin {
+        return Err(SpheresError::OutOfRange {
+            name: "skin_padding",
+            value: "true".into(),
+            allowed: "only with skin (--skin)".into(),
+        });
+    }
     let t0 = Instant::now();
     progress.update("grid", 0, 1);
     let ctx = Context::new(&scene.mesh, p.grid)?;
@@ -660,23 +673,43 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
     progress.update("finish", 0, 3);
     let model_e = raw.spheres.iter().map(|s| model.outside_volume(s.center, s.radius)).sum::<f64>()
         / volume_model.max(f64::MIN_POSITIVE);
-    let mut hierarchy = None;
+    let mut built = None;
     if p.hierarchy && stored.len() > 1 {
         let leaves: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
         let h = hierarchy::build(&leaves, p.seed);
         stored = h.leaf_order.iter().map(|&i| stored[i as usize]).collect();
-        hierarchy = Some(store_hierarchy(&h, &stored));
+        built = Some(h);
     }
     progress.update("finish", 1, 3);
+    let mut padding = None;
     let (skin_w, skin_cov) = if p.skin {
-        let leaves: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
-        let centers: Vec<[f64; 3]> = leaves.iter().map(|s| s.center).collect();
+        let centers: Vec<[f64; 3]> = stored.iter().map(|&v| from_f32(v).center).collect();
         let w = skin::sphere_skins(scene, &centers)?;
-        let cov = skin::coverage(scene, &leaves, &w, 1e-6 * ctx.frame.scale)?;
+        let tol = 1e-6 * ctx.frame.scale;
+        if p.skin_padding {
+            let leaves: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
+            let pad = skin::pose_padding(scene, &leaves, &w, tol)?;
+            for (s, &d) in stored.iter_mut().zip(&pad) {
+                if d > 0.0 {
+                    // smallest f32 radius not below r + pad (+ the coverage tolerance)
+                    let need = f64::from(s[3]) + d + tol;
+                    let mut r = need as f32;
+                    while f64::from(r) < need {
+                        r = r.next_up();
+                    }
+                    s[3] = r;
+                }
+            }
+            padding = Some(pad);
+        }
+        let leaves: Vec<Sphere> = stored.iter().map(|&v| from_f32(v)).collect();
+        let cov = skin::coverage(scene, &leaves, &w, tol)?;
         (Some(w), Some(cov))
     } else {
         (None, None)
     };
+    // nodes bound the (possibly padded) leaves: `round_to_f32` grows them as needed
+    let hierarchy = built.map(|h| store_hierarchy(&h, &stored));
     progress.update("finish", 2, 3);
     let metrics = measure(&stored);
     progress.update("finish", 3, 3);
@@ -704,5 +737,13 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
         fit_seconds,
         finish_seconds: t2.elapsed().as_secs_f64(),
     };
-    Ok(FitResult { spheres: stored, hierarchy, skin: skin_w, skin_coverage: skin_cov, metrics, report })
+    Ok(FitResult {
+        spheres: stored,
+        hierarchy,
+        skin: skin_w,
+        skin_coverage: skin_cov,
+        skin_padding: padding,
+        metrics,
+        report,
+    })
 }

@@ -9,9 +9,14 @@
 //! - *Mesh truth*: `V` is 0 when the ray hits the mesh (BVH any-hit, exact f64 watertight
 //!   tests, origin lifted by 10⁻⁶ of the scene size along `N`).
 //! - *Sphere truth*: `V` is 0 when the ray hits one of the spheres *after* the self-shadow
-//!   replacement rules the runtime applies at this receiver (SHEXP §6.2, re-implemented here
-//!   in f64), so the runtime's remaining difference to it is SH / log-space / exponentiation
-//!   error only (SHEXP Fig. 7 b–d).
+//!   replacement rules the runtime applies at this receiver (SHEXP §6.2; the caller applies
+//!   the runtime's own rule, `penumbra_runtime::shadows::rules`, in f64), so the runtime's
+//!   remaining difference to it is everything but the spheres' fit to the mesh: SH truncation,
+//!   log space and exponentiation, table interpolation and the proxy tables' smooth clamp,
+//!   and, with a hierarchy, the cut and its ratio vectors.
+//! - *Spherical light* ([`sphere_light_irradiance`]): `E = L_e ∫_{cone} V (N·ω)⁺ dω` over the
+//!   cone a light sphere subtends, sampled uniformly in solid angle (stratified in
+//!   `(cos θ, φ)`), rays ending at the light's near surface.
 //! - `L`: any function of direction — the environment band-limited to the runtime's SH order
 //!   (so a comparison measures visibility, not lighting truncation), or the full-frequency map.
 //!
@@ -81,32 +86,6 @@ pub fn mesh_blocked(bvh: &MeshBvh, lift: f64) -> impl Fn([f64; 3], [f64; 3]) -> 
     }
 }
 
-/// The self-shadow replacement of SHEXP §6.2 with the continuous blend the runtime uses
-/// (see `penumbra_runtime::shadows::replace`), in f64: the sphere a receiver at `p` with
-/// unit normal `n` accumulates for blocker `s`, or `None` if eliminated.
-pub fn replace(s: &Sphere, p: [f64; 3], n: [f64; 3]) -> Option<Sphere> {
-    let r = s.radius;
-    let cp = [s.center[0] - p[0], s.center[1] - p[1], s.center[2] - p[2]];
-    let h = cp[0] * n[0] + cp[1] * n[1] + cp[2] * n[2];
-    let d2 = cp[0] * cp[0] + cp[1] * cp[1] + cp[2] * cp[2];
-    let q1 = [s.center[0] - h * n[0], s.center[1] - h * n[1], s.center[2] - h * n[2]];
-    let tangent =
-        |rho: f64| (rho > 0.0).then(|| Sphere::new([q1[0] + rho * n[0], q1[1] + rho * n[1], q1[2] + rho * n[2]], rho));
-    if d2 < r * r {
-        return if h <= 0.0 { None } else { tangent(h) };
-    }
-    if h <= -r {
-        return None;
-    }
-    if h >= r {
-        return Some(*s);
-    }
-    let dc = (r * r - h * h).max(0.0).sqrt();
-    let in_plane = crate::sphere::dist(p, q1);
-    let t = if dc > 0.0 { ((in_plane - dc) / dc).clamp(0.0, 1.0) } else { 1.0 };
-    tangent((1.0 - t) * h.max(0.0) + t * 0.5 * (h + r))
-}
-
 /// Whether the ray `o + t·d`, `t > 0`, meets one of `spheres` (unit `d`).
 pub fn spheres_hit(spheres: &[Sphere], o: [f64; 3], d: [f64; 3]) -> bool {
     spheres.iter().any(|s| {
@@ -118,6 +97,104 @@ pub fn spheres_hit(spheres: &[Sphere], o: [f64; 3], d: [f64; 3]) -> bool {
         }
         b < 0.0 && b * b - c >= 0.0
     })
+}
+
+/// Irradiance and its standard error at `(p, n)` from a spherical light of centre `c`, radius
+/// `r` and unit radiance, with `k × k` strata of the cone it subtends (uniform in solid
+/// angle). `blocked(o, d, t_max)` says whether the ray from `o` along unit `d` is blocked
+/// before `t_max` (the distance to the light's surface along the ray). NaN when `p` lies
+/// inside the light.
+#[allow(clippy::too_many_arguments)]
+pub fn sphere_light_irradiance(
+    p: [f64; 3],
+    n: [f64; 3],
+    c: [f64; 3],
+    r: f64,
+    k: usize,
+    seed: u64,
+    item: u64,
+    blocked: &impl Fn([f64; 3], [f64; 3], f64) -> bool,
+) -> (f64, f64) {
+    let v = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+    let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if d <= r || d.is_nan() {
+        return (f64::NAN, f64::NAN);
+    }
+    let axis = v.map(|x| x / d);
+    let (t, b) = orthonormal_basis(axis);
+    let sin_t = r / d;
+    // 1 − cos θ without cancellation
+    let one_minus_cos = sin_t * sin_t / (1.0 + (1.0 - sin_t * sin_t).sqrt());
+    let omega = 2.0 * std::f64::consts::PI * one_minus_cos;
+    let m = (k * k) as f64;
+    let (mut sum, mut var, mut prev) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..k {
+        for j in 0..k {
+            let s = (i * k + j) as u64;
+            let u = (i as f64 + unit_f64(hash4(seed, stage::REFERENCE, item, 2 * s))) / k as f64;
+            let w = (j as f64 + unit_f64(hash4(seed, stage::REFERENCE, item, 2 * s + 1))) / k as f64;
+            let ct = 1.0 - u * one_minus_cos;
+            let st = (1.0 - ct * ct).max(0.0).sqrt();
+            let ph = 2.0 * std::f64::consts::PI * w;
+            let dir: [f64; 3] = std::array::from_fn(|q| st * ph.cos() * t[q] + st * ph.sin() * b[q] + ct * axis[q]);
+            let cosn = dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2];
+            // distance to the light's near surface along dir
+            let bq = d * ct;
+            let t_hit = bq - (bq * bq - (d * d - r * r)).max(0.0).sqrt();
+            let x = if cosn <= 0.0 || blocked(p, dir, t_hit) { 0.0 } else { omega * cosn };
+            sum += x;
+            if j % 2 == 1 || (j == k - 1 && k % 2 == 1 && j > 0) {
+                var += (x - prev).powi(2);
+            }
+            prev = x;
+        }
+    }
+    (sum / m, var.sqrt() / m)
+}
+
+/// Whether the ray `o + t·d`, `0 < t < t_max`, meets one of `spheres` (unit `d`).
+pub fn spheres_hit_before(spheres: &[Sphere], o: [f64; 3], d: [f64; 3], t_max: f64) -> bool {
+    spheres.iter().any(|s| {
+        let oc = [o[0] - s.center[0], o[1] - s.center[1], o[2] - s.center[2]];
+        let b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+        let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - s.radius * s.radius;
+        if c <= 0.0 {
+            return true; // origin inside
+        }
+        let disc = b * b - c;
+        b < 0.0 && disc >= 0.0 && -b - disc.sqrt() < t_max
+    })
+}
+
+/// The nearest of `spheres` the ray `o + t·d`, `t > 0`, meets (unit `d`): index and `t`. An
+/// origin inside a sphere hits it at its exit point.
+pub fn nearest_sphere_hit(spheres: &[Sphere], o: [f64; 3], d: [f64; 3]) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    for (i, s) in spheres.iter().enumerate() {
+        let oc = [o[0] - s.center[0], o[1] - s.center[1], o[2] - s.center[2]];
+        let b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+        let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - s.radius * s.radius;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            continue;
+        }
+        let q = disc.sqrt();
+        let t = if -b - q > 0.0 { -b - q } else { -b + q };
+        if t > 0.0 && best.is_none_or(|(_, bt)| t < bt) {
+            best = Some((i, t));
+        }
+    }
+    best
+}
+
+/// Ray blocker with a range for the mesh truth of a spherical light.
+pub fn mesh_blocked_before(bvh: &MeshBvh, lift: f64) -> impl Fn([f64; 3], [f64; 3], f64) -> bool + '_ {
+    move |o, d, t_max| {
+        let o2 = [o[0] + lift * d[0], o[1] + lift * d[1], o[2] + lift * d[2]];
+        let mut ray = Ray::new(o2, d);
+        ray.tmax = t_max - lift;
+        bvh.any_hit(&ray)
+    }
 }
 
 /// Incident radiance of an SH-projected environment: `Σ_lm L_lm y_lm(d)` per channel, with
@@ -178,15 +255,22 @@ mod tests {
     }
 
     #[test]
-    fn replacement_matches_the_runtime_rules() {
-        let n = [0.0, 0.0, 1.0];
-        let p = [0.0; 3];
-        assert_eq!(replace(&Sphere::new([0.0, 0.0, 3.0], 1.0), p, n), Some(Sphere::new([0.0, 0.0, 3.0], 1.0)));
-        assert_eq!(replace(&Sphere::new([2.0, 0.0, -1.5], 1.0), p, n), None);
-        assert_eq!(replace(&Sphere::new([0.1, 0.0, -0.2], 1.0), p, n), None);
-        let r = replace(&Sphere::new([0.1, 0.0, 0.3], 1.0), p, n).unwrap();
-        assert!((r.radius - 0.3).abs() < 1e-12 && (r.center[2] - 0.3).abs() < 1e-12);
-        let r = replace(&Sphere::new([10.0, 0.0, 0.5], 1.0), p, n).unwrap();
-        assert!((r.radius - 0.75).abs() < 1e-12 && r.center[0] == 10.0);
+    fn sphere_light_on_the_normal_matches_the_closed_form() {
+        // unoccluded light of angular radius θ on the normal: E = π sin²θ
+        let (c, r) = ([0.0, 0.0, 5.0], 2.0);
+        let (e, se) = sphere_light_irradiance([0.0; 3], [0.0, 0.0, 1.0], c, r, 32, 1, 0, &|_, _, _| false);
+        let exact = std::f64::consts::PI * (r / 5.0f64).powi(2);
+        assert!((e - exact).abs() < 1e-3 * exact && se < 1e-2 * exact, "{e} vs {exact} ± {se}");
+        // a blocker sphere behind the light does not block; one in front blocks it all
+        let behind = [Sphere::new([0.0, 0.0, 9.0], 3.0)];
+        let (e2, _) = sphere_light_irradiance([0.0; 3], [0.0, 0.0, 1.0], c, r, 32, 1, 0, &|o, d, t| {
+            spheres_hit_before(&behind, o, d, t)
+        });
+        assert_eq!(e2, e);
+        let front = [Sphere::new([0.0, 0.0, 2.0], 1.5)];
+        let (e3, _) = sphere_light_irradiance([0.0; 3], [0.0, 0.0, 1.0], c, r, 32, 1, 0, &|o, d, t| {
+            spheres_hit_before(&front, o, d, t)
+        });
+        assert_eq!(e3, 0.0);
     }
 }

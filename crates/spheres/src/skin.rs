@@ -205,6 +205,61 @@ pub fn pose_spheres(
         .collect())
 }
 
+/// Poses sampled per animation by [`pose_padding`]: evenly over the key range, ends included
+/// (denser than [`coverage`]'s 8, so the check there also sees times the padding never did).
+pub const PADDING_POSES: usize = 32;
+
+/// Per-sphere radius padding that keeps the set bounding in every sampled pose (issue #14:
+/// SHEXP §6.2 keeps the rest radius, "which remains a bound assuming typical articulated
+/// motion"; for skinned meshes whose surface stretches or slides over the bones it does not).
+/// For every animation at [`PADDING_POSES`] times, every posed vertex that no posed sphere
+/// contains (within `tolerance`) grows the sphere whose surface is nearest to it, just enough
+/// to contain it. Returns one padding per sphere (0 for most), in input units; the posed
+/// convention of the module docs with radius `r + pad`.
+pub fn pose_padding(
+    scene: &Scene,
+    spheres: &[Sphere],
+    skins: &[SphereSkin],
+    tolerance: f64,
+) -> Result<Vec<f64>, SkinError> {
+    use rayon::prelude::*;
+    let mut poses: Vec<(usize, f64)> = Vec::new();
+    for (a, anim) in scene.animations.iter().enumerate() {
+        let [t0, t1] = anim.time_range();
+        for k in 0..PADDING_POSES {
+            poses.push((a, t0 + (t1 - t0) * k as f64 / (PADDING_POSES - 1) as f64));
+        }
+    }
+    let per_pose: Vec<Result<Vec<f64>, SkinError>> = poses
+        .par_iter()
+        .map(|&(a, t)| {
+            let verts = scene.pose(Some(a), t)?;
+            let posed = pose_spheres(scene, spheres, skins, Some(a), t)?;
+            let mut pad = vec![0.0f64; spheres.len()];
+            for v in &verts {
+                let mut best = (f64::INFINITY, usize::MAX);
+                for (j, s) in posed.iter().enumerate() {
+                    let gap = crate::sphere::dist(s.center, *v) - s.radius;
+                    if gap < best.0 {
+                        best = (gap, j);
+                    }
+                }
+                if best.0 > tolerance && best.1 < pad.len() {
+                    pad[best.1] = pad[best.1].max(best.0);
+                }
+            }
+            Ok(pad)
+        })
+        .collect();
+    let mut pad = vec![0.0f64; spheres.len()];
+    for p in per_pose {
+        for (a, b) in pad.iter_mut().zip(p?) {
+            *a = a.max(b);
+        }
+    }
+    Ok(pad)
+}
+
 /// The posed-coverage check: for every animation at 8 evenly spaced times of its key range,
 /// the fraction of posed vertices inside at least one posed sphere (within `tolerance`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

@@ -94,6 +94,9 @@ fn params_json(job: &SpheresJob) -> Value {
         if p.fine_refine && p.refine && p.method == Method::Lloyd {
             o.insert("fine_refine".into(), json!(true));
         }
+        if p.skin_padding {
+            o.insert("skin_padding".into(), json!(true));
+        }
         if count.is_none() {
             o.insert("max_count".into(), json!(p.max_count));
         }
@@ -140,9 +143,8 @@ fn result_json(r: &FitResult, import: &ImportReport) -> Value {
     let m = &r.metrics;
     let rep = &r.report;
     let accepted: Vec<f64> = rep.log.iter().map(|l| l.e).collect();
-    json!({
+    let mut v = json!({
         "count": rep.count,
-        "requested_count": rep.requested_count,
         "method": method_name(rep.method),
         "outside_volume_ratio": m.outside_volume_ratio,
         "outside_volume_ratio_stderr": m.outside_volume_ratio_stderr,
@@ -169,7 +171,8 @@ fn result_json(r: &FitResult, import: &ImportReport) -> Value {
         "target_met": rep.target.as_ref().map(|t| t.met),
         "target_reason": rep.target.as_ref().and_then(|t| t.reason.clone()),
         "target_max_count": rep.target.as_ref().map(|t| t.max_count),
-        "hierarchy_levels": r.hierarchy.as_ref().map(|h| h.levels.len() + 1),
+        // internal levels: the rows of the SPHR `hierarchy_levels` section (leaves not counted)
+        "hierarchy_levels": r.hierarchy.as_ref().map(|h| h.levels.len()),
         "hierarchy_nodes": r.hierarchy.as_ref().map(|h| h.levels.iter().map(Vec::len).collect::<Vec<_>>()),
         "skin_coverage_min": r.skin_coverage.as_ref().map(|c| c.min),
         "skin_coverage": r.skin_coverage,
@@ -185,7 +188,20 @@ fn result_json(r: &FitResult, import: &ImportReport) -> Value {
         "setup_seconds": rep.setup_seconds,
         "fit_seconds": rep.fit_seconds,
         "finish_seconds": rep.finish_seconds,
-    })
+    });
+    if let Some(o) = v.as_object_mut() {
+        // a fixed --count is a request; a target search settles on a count itself
+        o.insert("requested_count".into(), json!(rep.target.is_none().then_some(rep.requested_count)));
+        o.insert("settled_count".into(), json!(rep.target.as_ref().map(|_| rep.requested_count)));
+        o.insert("hierarchy_levels_with_leaves".into(), json!(r.hierarchy.as_ref().map(|h| h.levels.len() + 1)));
+        if let Some(pad) = &r.skin_padding {
+            let max = pad.iter().copied().fold(0.0, f64::max);
+            o.insert("skin_padding_max".into(), json!(max));
+            o.insert("skin_padding_mean".into(), json!(pad.iter().sum::<f64>() / pad.len().max(1) as f64));
+            o.insert("skin_padded_spheres".into(), json!(pad.iter().filter(|&&d| d > 0.0).count()));
+        }
+    }
+    v
 }
 
 /// Runs one job: load, fit, write atomically.
@@ -269,6 +285,7 @@ pub fn job_from_args(a: &SpheresFitArgs) -> Result<SpheresJob, CliError> {
     params.polish = a.polish;
     params.hierarchy = a.hierarchy;
     params.skin = a.skin;
+    params.skin_padding = a.skin_padding;
     params.metrics.seed = a.seed;
     params.validate().map_err(CliError::input)?;
     Ok(SpheresJob { mesh, mesh_name: a.mesh_name.clone(), params, output })
@@ -322,7 +339,10 @@ pub fn run(a: &SpheresArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             m["iterations"],
             m["teleports_accepted"],
             m["teleports_rejected"],
-            m["hierarchy_levels"].as_u64().map(|l| format!("  hierarchy levels {l}")).unwrap_or_default(),
+            m["hierarchy_levels"]
+                .as_u64()
+                .map(|l| format!("  hierarchy: {l} internal levels above the leaves"))
+                .unwrap_or_default(),
             m["skin_coverage_min"].as_f64().map(|c| format!("  posed coverage ≥ {c:.4}")).unwrap_or_default(),
         );
     }

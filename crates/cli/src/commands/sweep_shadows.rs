@@ -140,6 +140,12 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
                     seed: 1,
                     image: None,
                     max_nrmse: None,
+                    local_light: None,
+                    animation: None,
+                    time: None,
+                    frames: None,
+                    indirect: false,
+                    albedo: "0.8,0.8,0.8".into(),
                     json: false,
                 };
                 let r = evaluate(&v)?;

@@ -26,12 +26,18 @@ use crate::fsutil::ensure_parent;
 use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
 use penumbra_asset::AssetFile;
-use penumbra_geometry::{EnvMap, MeshBvh, Scene};
+use penumbra_geometry::{EnvMap, MeshBvh, TriMesh};
 use penumbra_math::sh::ShEval;
+use penumbra_runtime::shadows::rules::replace_parts;
 use penumbra_runtime::shadows::{CutBlocker, RuntimeExp, ShadowEvaluator, ShadowOptions, Sphere as RtSphere};
-use penumbra_runtime::{NodeRef, ShTables, SphereSet};
+use penumbra_runtime::{NodeRef, PosedSpheres, ShTables, SphereSet, SphereTree};
+
+mod indirect;
+mod local_light;
+pub mod pose;
 use penumbra_spheres::reference;
 use penumbra_spheres::sphere::Sphere;
+use pose::Pose;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
@@ -130,6 +136,29 @@ pub struct VerifyShadowsArgs {
     /// Quality gate: exit 1 when `nrmse_vs_mesh` exceeds it (the report is still printed).
     #[arg(long, value_name = "NRMSE")]
     pub max_nrmse: Option<f64>,
+    /// Also shade with a local spherical light of unit radiance at `X,Y,Z` with radius `RADIUS`
+    /// (scene units) through the tables' `L_H(θ, φ)` ZH fit (SHEXP §7), against the light
+    /// ray traced at that finite distance: reports `nrmse_local_light`.
+    #[arg(long, value_name = "X,Y,Z,RADIUS", allow_hyphen_values = true)]
+    pub local_light: Option<String>,
+    /// Pose the mesh and the spheres (SPHR skin influences, hierarchy refitted) by this glTF
+    /// animation (name or index); reports `posed_coverage` and per-pose errors in `poses`.
+    #[arg(long, value_name = "NAME")]
+    pub animation: Option<String>,
+    /// Time of the pose in seconds (with `--animation`; default: the animation's start).
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    pub time: Option<f64>,
+    /// Evaluate N poses evenly spaced over the animation's key range, ends included.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub frames: Option<u32>,
+    /// Also verify indirect light from the proxies (IBPA §5) by the point-sampled, averaged
+    /// `D(θ)` and exact `M(θ)` operators against a one-bounce path trace off the diffuse
+    /// spheres: reports `nrmse_indirect` per operator and each one's cost.
+    #[arg(long)]
+    pub indirect: bool,
+    /// Albedo of the proxies for `--indirect`, `R,G,B` in [0, 1].
+    #[arg(long, value_name = "R,G,B", default_value = "0.8,0.8,0.8")]
+    pub albedo: String,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -161,22 +190,7 @@ pub fn nrmse(a: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
     if hi > lo { rmse / (hi - lo) } else { f64::NAN }
 }
 
-/// Projects an environment map onto RGB SH of `order`, every texel weighted by its exact
-/// solid angle.
-pub fn env_rgb_sh(env: &EnvMap, order: usize) -> Vec<[f64; 3]> {
-    let eval = ShEval::new(order);
-    let mut y = vec![0.0; order * order];
-    let mut out = vec![[0.0f64; 3]; order * order];
-    for (dir, sa, rgb) in env.iter() {
-        eval.eval_into(dir, &mut y);
-        for (o, yi) in out.iter_mut().zip(&y) {
-            for c in 0..3 {
-                o[c] += rgb[c] as f64 * sa * yi;
-            }
-        }
-    }
-    out
-}
+pub use crate::env_light::env_rgb_sh;
 
 fn open_asset(path: &Path) -> Result<AssetFile, CliError> {
     AssetFile::open(path).map_err(|e| CliError::input(anyhow!("{e}")))
@@ -188,8 +202,7 @@ type Receiver = ([f64; 3], [f64; 3]);
 /// An estimate and its standard error (RGB).
 type Estimate = ([f64; 3], [f64; 3]);
 
-fn receivers(scene: &Scene, a: &VerifyShadowsArgs) -> Result<Vec<Receiver>, CliError> {
-    let mesh = &scene.mesh;
+fn receivers(mesh: &TriMesh, a: &VerifyShadowsArgs) -> Result<Vec<Receiver>, CliError> {
     let b = mesh.bounds().ok_or_else(|| CliError::input(anyhow!("{}: the mesh is empty", a.mesh.display())))?;
     let up = match a.up {
         UpArg::Y => 1,
@@ -409,108 +422,58 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
     let acc_light: Vec<[f32; 3]> =
         acc_tables.as_ref().map(|t| env_rgb_sh(&env, t.order()).iter().map(|&c| to32(c)).collect()).unwrap_or_default();
     let acc_ev = acc_tables.as_ref().map(|t| ShadowEvaluator::new(t, &acc_light, options));
-    let recv = receivers(&scene, a)?;
-    let n_recv = recv.len();
-    let leaves: Vec<RtSphere> = (0..set.len()).map(|i| set.leaf(i)).collect();
-
-    // runtime, timed on one thread
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().map_err(CliError::internal)?;
-    let clusters = clusters(&recv, a);
-    let p32: Vec<[f32; 3]> = recv.iter().map(|(p, _)| to32(*p)).collect();
-    let n32: Vec<[f32; 3]> = recv.iter().map(|(_, n)| to32(*n)).collect();
-    let (runtime, ns_per_receiver, blockers_per_receiver) = pool.install(|| {
-        let start = Instant::now();
-        let mut out = vec![[0.0f64; 3]; n_recv];
-        let mut total_blockers = 0usize;
-        if a.hierarchy {
-            let sin_max = (a.theta_max.to_radians().sin()) as f32;
-            let mut stack: Vec<NodeRef> = Vec::new();
-            let mut cut: Vec<NodeRef> = Vec::new();
-            let mut blockers: Vec<CutBlocker> = Vec::new();
-            let (mut cp, mut cn, mut co) = (Vec::new(), Vec::new(), Vec::new());
-            for cl in &clusters {
-                let mut g = [0.0f64; 3];
-                for &i in cl {
-                    for k in 0..3 {
-                        g[k] += recv[i].0[k] / cl.len() as f64;
-                    }
-                }
-                let star = *cl
-                    .iter()
-                    .min_by(|&&x, &&y| {
-                        penumbra_spheres::sphere::dist2(recv[x].0, g)
-                            .total_cmp(&penumbra_spheres::sphere::dist2(recv[y].0, g))
-                    })
-                    .unwrap_or(&cl[0]);
-                let r_r = cl.iter().map(|&i| penumbra_spheres::sphere::dist(recv[i].0, g)).fold(0.0, f64::max);
-                set.cut(to32(g), r_r as f32, sin_max, &mut stack, &mut cut);
-                ev.cluster_blockers(&set, &cut, to32(recv[star].0), to32(recv[star].1), &mut blockers);
-                total_blockers += blockers.len() * cl.len();
-                // the cluster's receivers share the blockers: one batched call
-                cp.clear();
-                cn.clear();
-                cp.extend(cl.iter().map(|&i| p32[i]));
-                cn.extend(cl.iter().map(|&i| n32[i]));
-                co.resize(cl.len(), [0.0f32; 3]);
-                ev.irradiance_blockers_batch(&cp, &cn, &blockers, &mut co);
-                for (k, &i) in cl.iter().enumerate() {
-                    out[i] = co[k].map(f64::from);
-                }
+    let poses = pose::poses(&scene, a.animation.as_deref(), a.time, a.frames)?;
+    if poses.len() > 1 && (a.receivers == ReceiverKind::Far || a.image.is_some()) {
+        return Err(CliError::input(anyhow!("--frames N > 1 cannot be combined with --receivers far or --image")));
+    }
+    if a.animation.is_some() && !set.is_skinned() {
+        return Err(CliError::input(anyhow!(
+            "{}: --animation: the sphere set has no skin influences (bake it with `penumbra spheres --skin`)",
+            a.spheres.display()
+        )));
+    }
+    let local = a.local_light.as_deref().map(local_light::parse).transpose()?;
+    if local.is_some() && tables.local_light_zh().is_none() {
+        return Err(CliError::input(anyhow!(
+            "{}: --local-light: the tables have no local_light_zh section",
+            a.tables.display()
+        )));
+    }
+    let albedo = a.indirect.then(|| parse_albedo(&a.albedo)).transpose()?;
+    let env_sh3 = if a.indirect { env_rgb_sh(&env, 3) } else { Vec::new() };
+    let indirect_in = albedo.map(|al| (al, env_sh3.as_slice()));
+    let env_ctx = EnvCtx { env: &env, light_bl: &light_bl, eval: ShEval::new(order) };
+    let mut frames: Vec<FrameOut> = Vec::with_capacity(poses.len());
+    for &p in &poses {
+        let mut tree = PosedSpheres::rest(set);
+        let mesh = match p.0 {
+            None => scene.mesh.clone(),
+            Some(_) => {
+                tree.pose(&pose::node_matrices(&scene, p)?)
+                    .map_err(|e| CliError::input(anyhow!("{}: {e}", a.spheres.display())))?;
+                scene.posed_mesh(p.0, p.1).map_err(|e| CliError::input(anyhow!("{}: {e}", a.mesh.display())))?
             }
-        } else {
-            match &acc_ev {
-                Some(acc) => {
-                    for (i, (p, n)) in recv.iter().enumerate() {
-                        out[i] = ev.irradiance_accumulated_by(acc, to32(*p), to32(*n), &leaves).map(f64::from);
-                    }
-                }
-                None => {
-                    let mut o32 = vec![[0.0f32; 3]; n_recv];
-                    ev.irradiance_batch(&p32, &n32, &leaves, &mut o32);
-                    for (o, v) in out.iter_mut().zip(&o32) {
-                        *o = v.map(f64::from);
-                    }
-                }
+        };
+        frames.push(evaluate_frame(a, &ev, acc_ev.as_ref(), &tree, &mesh, &env_ctx, local, indirect_in)?);
+        if let Some(f) = frames.last_mut() {
+            f.pose = p;
+            if p.0.is_some() {
+                let tol = 1e-6 * mesh.bounds().map_or(1.0, |b| b.diagonal());
+                f.coverage = Some(pose::surface_coverage(&mesh, tree.leaves(), tol));
             }
-            total_blockers = leaves.len() * n_recv;
         }
-        let ns = start.elapsed().as_nanos() as f64 / n_recv as f64;
-        (out, ns, total_blockers as f64 / n_recv as f64)
-    });
-    // product-space accumulation (all leaves)
-    let product: Vec<[f64; 3]> =
-        recv.par_iter().map(|(p, n)| ev.irradiance_product(to32(*p), to32(*n), &leaves).map(f64::from)).collect();
-
-    // references
-    let bvh = MeshBvh::build(&scene.mesh).map_err(|e| CliError::input(anyhow!("{}: {e}", a.mesh.display())))?;
-    let scale = scene.mesh.bounds().map_or(1.0, |b| b.diagonal());
-    let lift = 1e-6 * scale;
-    let k = a.rays as usize;
-    let eval = ShEval::new(order);
-    let spheres64: Vec<Sphere> = leaves.iter().map(|s| Sphere::new(s.center.map(f64::from), s.radius as f64)).collect();
-    let blocked_mesh = reference::mesh_blocked(&bvh, lift);
-    type Trio = (Estimate, Estimate, Estimate);
-    let truths: Vec<Trio> = recv
-        .par_iter()
-        .enumerate()
-        .map(|(i, (p, n))| {
-            let o: [f64; 3] = std::array::from_fn(|c| p[c] + lift * n[c]);
-            let y = std::cell::RefCell::new(vec![0.0; order * order]);
-            let bl = |d: [f64; 3]| reference::sh_radiance(&eval, &light_bl, d, &mut y.borrow_mut());
-            let full = |d: [f64; 3]| env.sample(d).map(f64::from);
-            let mesh_bl = reference::irradiance(o, *n, k, a.seed, i as u64, &bl, &blocked_mesh);
-            let mesh_full = reference::irradiance(o, *n, k, a.seed, i as u64, &full, &blocked_mesh);
-            let eff: Vec<Sphere> = spheres64.iter().filter_map(|s| reference::replace(s, *p, *n)).collect();
-            let sph =
-                reference::irradiance(o, *n, k, a.seed, i as u64, &bl, &|oo, d| reference::spheres_hit(&eff, oo, d));
-            (mesh_bl, mesh_full, sph)
-        })
-        .collect();
-    let mesh_truth: Vec<[f64; 3]> = truths.iter().map(|t| t.0.0).collect();
-    let mesh_full: Vec<[f64; 3]> = truths.iter().map(|t| t.1.0).collect();
-    let sphere_truth: Vec<[f64; 3]> = truths.iter().map(|t| t.2.0).collect();
+    }
+    let cat = |sel: &dyn Fn(&FrameOut) -> &Vec<[f64; 3]>| -> Vec<[f64; 3]> {
+        frames.iter().flat_map(|f| sel(f).iter().copied()).collect()
+    };
+    let runtime = cat(&|f| &f.runtime);
+    let product = cat(&|f| &f.product);
+    let mesh_truth = cat(&|f| &f.mesh_truth);
+    let mesh_full = cat(&|f| &f.mesh_full);
+    let sphere_truth = cat(&|f| &f.sphere_truth);
+    let n_recv = runtime.len();
     // RMS of the references' standard errors over their range (an upper bound of their noise)
-    let noise = |sel: &dyn Fn(&Trio) -> Estimate, reference: &[[f64; 3]]| -> f64 {
+    let noise = |sel: &dyn Fn(&FrameOut) -> &Vec<[f64; 3]>, reference: &[[f64; 3]]| -> f64 {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for r in reference {
             for c in 0..3 {
@@ -518,12 +481,16 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
                 hi = hi.max(r[c]);
             }
         }
-        let ms = truths.iter().map(|t| sel(t).1.iter().map(|x| x * x).sum::<f64>()).sum::<f64>() / (3 * n_recv) as f64;
+        let ms = frames.iter().flat_map(|f| sel(f).iter()).map(|se| se.iter().map(|x| x * x).sum::<f64>()).sum::<f64>()
+            / (3 * n_recv) as f64;
         if hi > lo { ms.sqrt() / (hi - lo) } else { f64::NAN }
     };
-    let unshadowed_mean =
-        recv.iter().map(|(_, n)| ev.unshadowed(to32(*n)).iter().map(|&x| x as f64).sum::<f64>() / 3.0).sum::<f64>()
-            / n_recv as f64;
+    let unshadowed_mean = frames
+        .iter()
+        .flat_map(|f| f.recv.iter())
+        .map(|(_, n)| ev.unshadowed(to32(*n)).iter().map(|&x| x as f64).sum::<f64>() / 3.0)
+        .sum::<f64>()
+        / n_recv as f64;
     let max_abs =
         runtime.iter().zip(&mesh_truth).flat_map(|(x, r)| (0..3).map(move |c| (x[c] - r[c]).abs())).fold(0.0, f64::max);
     let nrmse_by_distance: Option<Vec<Value>> = (a.receivers == ReceiverKind::Far).then(|| {
@@ -546,7 +513,49 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             })
             .collect()
     });
-    let json = json!({
+    let mean = |sel: &dyn Fn(&FrameOut) -> f64| {
+        frames.iter().map(|f| sel(f) * f.recv.len() as f64).sum::<f64>() / n_recv as f64
+    };
+    let ns = mean(&|f| f.ns_per_receiver);
+    let scalar_timing = acc_ev.is_some();
+    let animated = a.animation.is_some();
+    let anim_name = |p: Pose| p.0.map(|i| scene.animations[i].name.clone().unwrap_or_else(|| i.to_string()));
+    let pose_json: Option<Vec<Value>> = animated.then(|| {
+        frames
+            .iter()
+            .map(|f| {
+                json!({
+                    "animation": anim_name(f.pose),
+                    "time": f.pose.1,
+                    "posed_coverage": f.coverage,
+                    "nrmse_vs_mesh": nrmse(&f.runtime, &f.mesh_truth),
+                    "nrmse_vs_spheres": nrmse(&f.runtime, &f.sphere_truth),
+                    "nrmse_spheres_vs_mesh": nrmse(&f.sphere_truth, &f.mesh_truth),
+                    "nrmse_local_light": f.local.as_ref().map(|l| nrmse(&l.runtime, &l.mesh)),
+                })
+            })
+            .collect()
+    });
+    let local_json = local.map(|l| {
+        let lc = |sel: &dyn Fn(&LocalOut) -> &Vec<[f64; 3]>| -> Vec<[f64; 3]> {
+            frames.iter().filter_map(|f| f.local.as_ref()).flat_map(|o| sel(o).iter().copied()).collect()
+        };
+        let (rt, mesh, sph, rt_un, un) = (
+            lc(&|o| &o.runtime),
+            lc(&|o| &o.mesh),
+            lc(&|o| &o.spheres),
+            lc(&|o| &o.runtime_unshadowed),
+            lc(&|o| &o.unshadowed),
+        );
+        json!({
+            "nrmse_local_light": nrmse(&rt, &mesh),
+            "nrmse_local_light_vs_spheres": nrmse(&rt, &sph),
+            "nrmse_local_light_unshadowed": nrmse(&rt_un, &un),
+            "nrmse_local_light_spheres_vs_mesh": nrmse(&sph, &mesh),
+            "local_light": {"center": [l.0[0], l.0[1], l.0[2]], "radius": l.0[3], "radiance": 1.0},
+        })
+    });
+    let mut json = json!({
         "nrmse_by_distance": nrmse_by_distance,
         "nrmse_vs_mesh": nrmse(&runtime, &mesh_truth),
         "nrmse_vs_mesh_full": nrmse(&runtime, &mesh_full),
@@ -555,29 +564,254 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
         "nrmse_product_vs_spheres": nrmse(&product, &sphere_truth),
         "nrmse_spheres_vs_mesh": nrmse(&sphere_truth, &mesh_truth),
         "reference_noise_nrmse": {
-            "mesh": noise(&|t: &Trio| t.0, &mesh_truth),
-            "mesh_full": noise(&|t: &Trio| t.1, &mesh_full),
-            "spheres": noise(&|t: &Trio| t.2, &sphere_truth),
+            "mesh": noise(&|f| &f.mesh_se, &mesh_truth),
+            "mesh_full": noise(&|f| &f.mesh_full_se, &mesh_full),
+            "spheres": noise(&|f| &f.sphere_se, &sphere_truth),
         },
         "max_abs_error_vs_mesh": max_abs,
         "unshadowed_irradiance_mean": unshadowed_mean,
         "receivers": n_recv,
         "receiver_kind": match a.receivers { ReceiverKind::Plane => "plane", ReceiverKind::Mesh => "mesh", ReceiverKind::Far => "far" },
-        "reference_rays_per_receiver": k * k,
-        "ns_per_receiver": ns_per_receiver,
-        "blockers_per_receiver": blockers_per_receiver,
+        "reference_rays_per_receiver": a.rays as usize * a.rays as usize,
+        "ns_per_receiver": (!scalar_timing).then_some(ns),
+        "ns_per_receiver_scalar": scalar_timing.then_some(ns),
+        "timed_path": if scalar_timing { "scalar (irradiance_accumulated_by)" } else if a.hierarchy { "batched, cut + ratio vectors included" } else { "batched" },
+        "blockers_per_receiver": mean(&|f| f.accumulated_per_receiver),
+        "candidate_blockers_per_receiver": mean(&|f| f.candidates_per_receiver),
         "hierarchy": a.hierarchy,
         "theta_max_deg": a.hierarchy.then_some(a.theta_max),
-        "clusters": a.hierarchy.then_some(clusters.len()),
+        "clusters": a.hierarchy.then(|| frames.iter().map(|f| f.clusters).sum::<usize>()),
         "exp_method": match a.exp { ExpArg::Hyb => "hyb".to_string(), ExpArg::Ol => "ol".to_string(), ExpArg::Ps => format!("ps*-{}", a.ps_degree) },
         "window": window,
         "order": order,
         "accumulation_order": acc_tables.as_ref().map_or(order, |t| t.order()),
         "env_rotate": format!("{:?}", a.env_rotate).to_lowercase(),
         "sphere_count": set.len(),
+        "animation": poses.first().and_then(|&p| anim_name(p)),
+        "poses": pose_json,
+        "posed_coverage": animated.then(|| frames.iter().filter_map(|f| f.coverage).fold(f64::INFINITY, f64::min)),
+        "posed_coverage_mean": animated.then(|| frames.iter().filter_map(|f| f.coverage).sum::<f64>() / frames.len() as f64),
         "nrmse_definition": "RMSE over receivers and RGB / (max - min of the reference over receivers and RGB)",
     });
+    if let (Some(o), Some(Value::Object(l))) = (json.as_object_mut(), local_json) {
+        o.extend(l);
+    }
+    if let (Some(o), Some(al)) = (json.as_object_mut(), albedo) {
+        let outs: Vec<&indirect::IndirectOut> = frames.iter().filter_map(|f| f.indirect.as_ref()).collect();
+        if let Value::Object(l) = indirect::report(&outs, al) {
+            o.extend(l);
+        }
+    }
     Ok(ShadowReport { json, runtime, mesh_truth })
+}
+
+/// Parses `--albedo R,G,B`.
+fn parse_albedo(s: &str) -> Result<[f64; 3], CliError> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().unwrap_or_default();
+    if v.len() != 3 || v.iter().any(|x| !(0.0..=1.0).contains(x)) {
+        return Err(CliError::input(anyhow!("--albedo {s}: expected R,G,B with each in [0, 1]")));
+    }
+    Ok([v[0], v[1], v[2]])
+}
+
+/// The environment light of a verification.
+struct EnvCtx<'e> {
+    env: &'e EnvMap,
+    /// Band-limited, windowed RGB SH (the runtime's light).
+    light_bl: &'e [[f64; 3]],
+    eval: ShEval,
+}
+
+/// Local-light results of one pose (RGB per receiver).
+struct LocalOut {
+    runtime: Vec<[f64; 3]>,
+    mesh: Vec<[f64; 3]>,
+    spheres: Vec<[f64; 3]>,
+    runtime_unshadowed: Vec<[f64; 3]>,
+    unshadowed: Vec<[f64; 3]>,
+}
+
+/// What one pose measured.
+struct FrameOut {
+    pose: Pose,
+    recv: Vec<Receiver>,
+    runtime: Vec<[f64; 3]>,
+    product: Vec<[f64; 3]>,
+    mesh_truth: Vec<[f64; 3]>,
+    mesh_se: Vec<[f64; 3]>,
+    mesh_full: Vec<[f64; 3]>,
+    mesh_full_se: Vec<[f64; 3]>,
+    sphere_truth: Vec<[f64; 3]>,
+    sphere_se: Vec<[f64; 3]>,
+    ns_per_receiver: f64,
+    candidates_per_receiver: f64,
+    accumulated_per_receiver: f64,
+    clusters: usize,
+    coverage: Option<f64>,
+    local: Option<LocalOut>,
+    indirect: Option<indirect::IndirectOut>,
+}
+
+/// The runtime, product space and the references for one pose of the mesh and the spheres.
+fn evaluate_frame(
+    a: &VerifyShadowsArgs,
+    ev: &ShadowEvaluator<'_>,
+    acc_ev: Option<&ShadowEvaluator<'_>>,
+    tree: &PosedSpheres<'_>,
+    mesh: &TriMesh,
+    env: &EnvCtx<'_>,
+    local: Option<local_light::Light>,
+    indirect_in: Option<([f64; 3], &[[f64; 3]])>,
+) -> Result<FrameOut, CliError> {
+    let order = ev.order();
+    let recv = receivers(mesh, a)?;
+    let n_recv = recv.len();
+    let leaves: Vec<RtSphere> = tree.leaves().to_vec();
+    let clusters = clusters(&recv, a);
+    let p32: Vec<[f32; 3]> = recv.iter().map(|(p, _)| to32(*p)).collect();
+    let n32: Vec<[f32; 3]> = recv.iter().map(|(_, n)| to32(*n)).collect();
+    let sin_max = (a.theta_max.to_radians().sin()) as f32;
+    // a cluster's cut and its ratio vectors at its central receiver (SHEXP §6.3)
+    let cluster_cut =
+        |cl: &[usize], stack: &mut Vec<NodeRef>, cut: &mut Vec<NodeRef>, blockers: &mut Vec<CutBlocker>| {
+            let mut g = [0.0f64; 3];
+            for &i in cl {
+                for k in 0..3 {
+                    g[k] += recv[i].0[k] / cl.len() as f64;
+                }
+            }
+            let star = *cl
+                .iter()
+                .min_by(|&&x, &&y| {
+                    penumbra_spheres::sphere::dist2(recv[x].0, g)
+                        .total_cmp(&penumbra_spheres::sphere::dist2(recv[y].0, g))
+                })
+                .unwrap_or(&cl[0]);
+            let r_r = cl.iter().map(|&i| penumbra_spheres::sphere::dist(recv[i].0, g)).fold(0.0, f64::max);
+            tree.cut(to32(g), r_r as f32, sin_max, stack, cut);
+            ev.cluster_blockers(tree, cut, to32(recv[star].0), to32(recv[star].1), blockers);
+        };
+
+    // runtime, timed on one thread
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().map_err(CliError::internal)?;
+    let (runtime, ns_per_receiver) = pool.install(|| {
+        let start = Instant::now();
+        let mut out = vec![[0.0f64; 3]; n_recv];
+        if a.hierarchy {
+            let (mut stack, mut cut, mut blockers) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut cp, mut cn, mut co) = (Vec::new(), Vec::new(), Vec::new());
+            for cl in &clusters {
+                cluster_cut(cl, &mut stack, &mut cut, &mut blockers);
+                // the cluster's receivers share the blockers: one batched call
+                cp.clear();
+                cn.clear();
+                cp.extend(cl.iter().map(|&i| p32[i]));
+                cn.extend(cl.iter().map(|&i| n32[i]));
+                co.resize(cl.len(), [0.0f32; 3]);
+                ev.irradiance_blockers_batch(&cp, &cn, &blockers, &mut co);
+                for (k, &i) in cl.iter().enumerate() {
+                    out[i] = co[k].map(f64::from);
+                }
+            }
+        } else {
+            match acc_ev {
+                Some(acc) => {
+                    for (i, (p, n)) in recv.iter().enumerate() {
+                        out[i] = ev.irradiance_accumulated_by(acc, to32(*p), to32(*n), &leaves).map(f64::from);
+                    }
+                }
+                None => {
+                    let mut o32 = vec![[0.0f32; 3]; n_recv];
+                    ev.irradiance_batch(&p32, &n32, &leaves, &mut o32);
+                    for (o, v) in out.iter_mut().zip(&o32) {
+                        *o = v.map(f64::from);
+                    }
+                }
+            }
+        }
+        (out, start.elapsed().as_nanos() as f64 / n_recv as f64)
+    });
+    // blockers per receiver, untimed: handed to the runtime, and really accumulated (after
+    // the self-shadow rules drop those behind or containing the receiver)
+    let (mut candidates, mut accumulated) = (0usize, 0usize);
+    if a.hierarchy {
+        let (mut stack, mut cut, mut blockers) = (Vec::new(), Vec::new(), Vec::new());
+        for cl in &clusters {
+            cluster_cut(cl, &mut stack, &mut cut, &mut blockers);
+            candidates += blockers.len() * cl.len();
+            accumulated += cl
+                .iter()
+                .map(|&i| ev.accumulated_count(p32[i], n32[i], blockers.iter().map(|b| b.sphere)))
+                .sum::<usize>();
+        }
+    } else {
+        candidates = leaves.len() * n_recv;
+        accumulated = (0..n_recv).map(|i| ev.accumulated_count(p32[i], n32[i], leaves.iter().copied())).sum();
+    }
+    // product-space accumulation (all leaves)
+    let product: Vec<[f64; 3]> =
+        recv.par_iter().map(|(p, n)| ev.irradiance_product(to32(*p), to32(*n), &leaves).map(f64::from)).collect();
+
+    // references
+    let bvh = MeshBvh::build(mesh).map_err(|e| CliError::input(anyhow!("{}: {e}", a.mesh.display())))?;
+    let scale = mesh.bounds().map_or(1.0, |b| b.diagonal());
+    let lift = 1e-6 * scale;
+    let k = a.rays as usize;
+    let spheres64: Vec<Sphere> = leaves.iter().map(|s| Sphere::new(s.center.map(f64::from), s.radius as f64)).collect();
+    let blocked_mesh = reference::mesh_blocked(&bvh, lift);
+    type Trio = (Estimate, Estimate, Estimate);
+    let truths: Vec<Trio> = recv
+        .par_iter()
+        .enumerate()
+        .map(|(i, (p, n))| {
+            let o: [f64; 3] = std::array::from_fn(|c| p[c] + lift * n[c]);
+            let y = std::cell::RefCell::new(vec![0.0; order * order]);
+            let bl = |d: [f64; 3]| reference::sh_radiance(&env.eval, env.light_bl, d, &mut y.borrow_mut());
+            let full = |d: [f64; 3]| env.env.sample(d).map(f64::from);
+            let mesh_bl = reference::irradiance(o, *n, k, a.seed, i as u64, &bl, &blocked_mesh);
+            let mesh_full = reference::irradiance(o, *n, k, a.seed, i as u64, &full, &blocked_mesh);
+            let eff = effective_spheres(&spheres64, *p, *n);
+            let sph =
+                reference::irradiance(o, *n, k, a.seed, i as u64, &bl, &|oo, d| reference::spheres_hit(&eff, oo, d));
+            (mesh_bl, mesh_full, sph)
+        })
+        .collect();
+    let local =
+        local.map(|l| local_light::evaluate(ev, l, &recv, &leaves, &spheres64, &bvh, lift, k, a.seed)).transpose()?;
+    let indirect_out = indirect_in
+        .map(|(al, sh3)| indirect::evaluate(ev, al, sh3, &recv, &leaves, &spheres64, k, a.seed))
+        .transpose()?;
+    Ok(FrameOut {
+        pose: (None, 0.0),
+        runtime,
+        product,
+        mesh_truth: truths.iter().map(|t| t.0.0).collect(),
+        mesh_se: truths.iter().map(|t| t.0.1).collect(),
+        mesh_full: truths.iter().map(|t| t.1.0).collect(),
+        mesh_full_se: truths.iter().map(|t| t.1.1).collect(),
+        sphere_truth: truths.iter().map(|t| t.2.0).collect(),
+        sphere_se: truths.iter().map(|t| t.2.1).collect(),
+        ns_per_receiver,
+        candidates_per_receiver: candidates as f64 / n_recv as f64,
+        accumulated_per_receiver: accumulated as f64 / n_recv as f64,
+        clusters: clusters.len(),
+        coverage: None,
+        local,
+        indirect: indirect_out,
+        recv,
+    })
+}
+
+/// The spheres a receiver at `(p, n)` sees after the runtime's own self-shadow rule
+/// (`penumbra_runtime::shadows::rules`), evaluated in f64: what the sphere truths trace.
+pub fn effective_spheres(spheres: &[Sphere], p: [f64; 3], n: [f64; 3]) -> Vec<Sphere> {
+    spheres
+        .iter()
+        .filter_map(|s| {
+            let (c, r, keep) = replace_parts(s.center, s.radius, p, n);
+            keep.then(|| Sphere::new(c, r))
+        })
+        .collect()
 }
 
 /// `(max − min)/max` of the mean of RGB over receivers: how deep the shadow on a plane is.
@@ -664,9 +898,19 @@ pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
             f("nrmse_vs_mesh_full"),
             f("nrmse_vs_spheres"),
             f("nrmse_log_vs_product"),
-            f("ns_per_receiver"),
+            v["ns_per_receiver"].as_f64().or_else(|| v["ns_per_receiver_scalar"].as_f64()).unwrap_or(f64::NAN),
             f("blockers_per_receiver"),
         );
+        if let Some(x) = v["nrmse_local_light"].as_f64() {
+            eprintln!("  local light: NRMSE vs mesh {x:.4}  vs spheres {:.4}", f("nrmse_local_light_vs_spheres"));
+        }
+        if let Some(x) = v["posed_coverage"].as_f64() {
+            eprintln!("  posed coverage ≥ {x:.4} over {} poses", v["poses"].as_array().map_or(0, Vec::len));
+        }
+        if v["nrmse_indirect"].is_object() {
+            let g = |k: &str| v["nrmse_indirect"][k].as_f64().unwrap_or(f64::NAN);
+            eprintln!("  indirect NRMSE: point {:.4}  averaged {:.4}  exact {:.4}", g("point"), g("d"), g("m"));
+        }
     }
     if gate_failed {
         eprintln!(

@@ -5,7 +5,8 @@
 //! what [`ShadowEvaluator::irradiance`] returns per receiver, for any batch composition
 //! (tested bit for bit) — batching is a speed choice, never an accuracy one.
 
-use super::{CutBlocker, RuntimeExp, ShadowEvaluator, Sphere};
+use super::rules::replace_parts;
+use super::{CutBlocker, ShadowEvaluator, Sphere};
 use crate::sh::MAX_ORDER;
 
 /// Receivers evaluated together. Eight f32 lanes fill one AVX register or two SSE ones.
@@ -19,39 +20,23 @@ struct Receivers {
     n: [V; 3],
 }
 
-/// The self-shadow replacement rules ([`super::replace`]) for one sphere on every lane:
-/// returns the effective centre, radius and whether the lane keeps the sphere. Same
-/// operations as the scalar rule (component-wise, in its order), every case evaluated and
-/// selected per lane so the loop vectorises.
+/// The self-shadow replacement rules ([`super::rules::replace_parts`], the scalar path's
+/// rule itself) for one sphere on every lane: the effective centre, radius and whether the
+/// lane keeps the sphere.
 #[inline(always)]
 fn replace_lanes(s: Sphere, rc: &Receivers) -> ([V; 3], V, [bool; LANES]) {
     let mut center = [[0.0f32; LANES]; 3];
     let mut radius = [0.0f32; LANES];
     let mut keep = [false; LANES];
-    let r = s.radius;
-    let [cx, cy, cz] = s.center;
     for lane in 0..LANES {
-        let (px, py, pz) = (rc.p[0][lane], rc.p[1][lane], rc.p[2][lane]);
-        let (nx, ny, nz) = (rc.n[0][lane], rc.n[1][lane], rc.n[2][lane]);
-        let (cpx, cpy, cpz) = (cx - px, cy - py, cz - pz);
-        let h = cpx * nx + cpy * ny + cpz * nz;
-        let d2 = cpx * cpx + cpy * cpy + cpz * cpz;
-        let (q1x, q1y, q1z) = (cx + nx * -h, cy + ny * -h, cz + nz * -h);
-        // outside and straddling: the radius grows from the inside rule's to S''s
-        let dc = (r * r - h * h).max(0.0).sqrt();
-        let (vx, vy, vz) = (px - q1x, py - q1y, pz - q1z);
-        let in_plane = (vx * vx + vy * vy + vz * vz).sqrt();
-        let t = if dc > 0.0 { ((in_plane - dc) / dc).clamp(0.0, 1.0) } else { 1.0 };
-        let straddle = (1.0 - t) * h.max(0.0) + t * 0.5 * (h + r);
-        let inside = d2 < r * r;
-        let unchanged = !inside && h >= r;
-        let removed = if inside { h <= 0.0 } else { h <= -r };
-        let rho = if inside { h } else { straddle };
-        center[0][lane] = if unchanged { cx } else { q1x + nx * rho };
-        center[1][lane] = if unchanged { cy } else { q1y + ny * rho };
-        center[2][lane] = if unchanged { cz } else { q1z + nz * rho };
-        radius[lane] = if unchanged { r } else { rho };
-        keep[lane] = !removed && (unchanged || rho > 0.0);
+        let p = [rc.p[0][lane], rc.p[1][lane], rc.p[2][lane]];
+        let n = [rc.n[0][lane], rc.n[1][lane], rc.n[2][lane]];
+        let (c, r, k) = replace_parts(s.center, s.radius, p, n);
+        center[0][lane] = c[0];
+        center[1][lane] = c[1];
+        center[2][lane] = c[2];
+        radius[lane] = r;
+        keep[lane] = k;
     }
     (center, radius, keep)
 }
@@ -198,22 +183,6 @@ impl ShadowEvaluator<'_> {
                 }
             }
             basis.add_zonal_lanes::<N, N2, LANES>(&dir, &zh, f);
-        }
-    }
-
-    /// [`ShadowEvaluator::exponentiate`] on every lane (HYB batched; OL and PS*-p per lane).
-    fn exponentiate_lanes<const N2: usize>(&self, f: &[V; N2], g: &mut [V; N2]) {
-        if self.options.exp == RuntimeExp::Hyb {
-            self.tables.exp_hyb_lanes::<N2, LANES>(f, g);
-            return;
-        }
-        for lane in 0..LANES {
-            let fl: [f32; N2] = core::array::from_fn(|i| f[i][lane]);
-            let mut gl = [0.0f32; N2];
-            self.exponentiate(&fl, &mut gl);
-            for i in 0..N2 {
-                g[i][lane] = gl[i];
-            }
         }
     }
 }
