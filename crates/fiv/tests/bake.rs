@@ -158,6 +158,34 @@ fn texel_major_blocks_give_each_sample_alone_bit_for_bit() {
 }
 
 #[test]
+fn half_ktx2_export_refuses_values_beyond_f16() {
+    // a bright environment: occluded FIVs ~ 1e6 sr·radiance, beyond f16's 65504
+    let occ = Occluder::new(uv_sphere([0.0; 3], 1.0, 8, 16)).unwrap();
+    let light = Lighting::new(CubeMap::constant(8, [1e6, 1.0, 1.0]));
+    let b = bake(&occ, &light, &params(8, 5, 3, 1.0, 3.0), Shard::WHOLE, &NoProgress).unwrap();
+    let bytes = to_bytes(&b, &light, occ.mesh(), Storage::F32);
+    let owned = penumbra_asset::OwnedAsset::parse(&bytes).unwrap();
+    let asset = owned.asset();
+    use penumbra_fiv::ktx2::{TexelFormat, to_ktx2_as};
+    let full = to_ktx2_as(&asset, "t", TexelFormat::Rgba32F).unwrap();
+    assert_eq!(u32::from_le_bytes(full[12..16].try_into().unwrap()), 109);
+    let e = to_ktx2_as(&asset, "t", TexelFormat::Rgba16F).unwrap_err().to_string();
+    assert!(e.contains("65504"), "{e}");
+    // a dim one fits, and is half the level size
+    let light = Lighting::new(CubeMap::constant(8, [1.0, 2.0, 0.5]));
+    let b = bake(&occ, &light, &params(8, 5, 3, 1.0, 3.0), Shard::WHOLE, &NoProgress).unwrap();
+    let bytes = to_bytes(&b, &light, occ.mesh(), Storage::F32);
+    let owned = penumbra_asset::OwnedAsset::parse(&bytes).unwrap();
+    let (f32_len, f16_len) = (
+        to_ktx2_as(&owned.asset(), "t", TexelFormat::Rgba32F).unwrap().len(),
+        to_ktx2_as(&owned.asset(), "t", TexelFormat::Rgba16F).unwrap(),
+    );
+    assert_eq!(u32::from_le_bytes(f16_len[12..16].try_into().unwrap()), 97);
+    let level = 8 * 5 * 9 * 8;
+    assert!(f16_len.len() >= level && f32_len >= 2 * level && f32_len - f16_len.len() >= level - 16);
+}
+
+#[test]
 fn sphere_cap_fiv_matches_the_analytic_integral() {
     // a sphere of radius 1 seen from distance ρ hides the cap of half-angle α = asin(1/ρ);
     // under constant radiance L, FIV = L·∫_cap ω dΩ = L·π sin²α toward the centre
