@@ -291,6 +291,10 @@ pub struct FivExportArgs {
     /// Output KTX2 file (written atomically; parent directories are created).
     #[arg(long, value_name = "OUT.ktx2")]
     pub ktx2: PathBuf,
+    /// RGBA16F texels (`VK_FORMAT_R16G16B16A16_SFLOAT`, half the memory) instead of RGBA32F;
+    /// a value beyond f16's range is an error.
+    #[arg(long)]
+    pub half: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,

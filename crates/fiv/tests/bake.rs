@@ -117,6 +117,75 @@ fn silhouette_culling_changes_no_bit() {
 }
 
 #[test]
+fn texel_major_blocks_give_each_sample_alone_bit_for_bit() {
+    // the bake traces blocks of 256 rows texel-major; 40 × 9 = 360 rows make a full block and
+    // a partial one. Every stored FIV must be the f32 of what the tracer computes for that
+    // sample alone, and the counters their sum.
+    let mut mesh = torus([0.05, 0.0, -0.1], 1.0, 0.35, 32, 16);
+    mesh.map_positions(|[x, y, z]| [x, 0.6 * y - 0.8 * z, 0.8 * y + 0.6 * z]);
+    let occ = Occluder::new(mesh).unwrap();
+    let light = env(8);
+    // r_min 0.74: the innermost shell runs through the tube (inside samples)
+    let p = params(40, 9, 4, 0.74, 3.0);
+    let b = bake_with(&occ, &light, &p, Shard::WHOLE, &NoProgress, Culling::Always).unwrap();
+    let tracer = FivTracer::new(&occ, &light, true);
+    let l = p.layout;
+    let mut sum = BakeStats::default();
+    for i in 0..l.azimuth {
+        for j in 0..l.polar {
+            for k in 0..l.radial {
+                let s = l.index(i, j, k);
+                if b.inside[s] == 1 {
+                    continue;
+                }
+                let (f, st) = tracer.fiv(l.position(&occ.frame(), i, j, k));
+                for c in 0..3 {
+                    for x in 0..3 {
+                        assert_eq!(b.fiv[s * 9 + c * 3 + x].to_bits(), (f[c][x] as f32).to_bits(), "{i},{j},{k}");
+                    }
+                }
+                sum.rays_traced += st.rays_traced;
+                sum.rays_hit += st.rays_hit;
+                sum.rays_certified += st.rays_certified;
+            }
+        }
+    }
+    assert!(b.stats.inside_samples > 0 && sum.rays_certified > 0);
+    assert_eq!(
+        (b.stats.rays_traced, b.stats.rays_hit, b.stats.rays_certified),
+        (sum.rays_traced, sum.rays_hit, sum.rays_certified)
+    );
+}
+
+#[test]
+fn half_ktx2_export_refuses_values_beyond_f16() {
+    // a bright environment: occluded FIVs ~ 1e6 sr·radiance, beyond f16's 65504
+    let occ = Occluder::new(uv_sphere([0.0; 3], 1.0, 8, 16)).unwrap();
+    let light = Lighting::new(CubeMap::constant(8, [1e6, 1.0, 1.0]));
+    let b = bake(&occ, &light, &params(8, 5, 3, 1.0, 3.0), Shard::WHOLE, &NoProgress).unwrap();
+    let bytes = to_bytes(&b, &light, occ.mesh(), Storage::F32);
+    let owned = penumbra_asset::OwnedAsset::parse(&bytes).unwrap();
+    let asset = owned.asset();
+    use penumbra_fiv::ktx2::{TexelFormat, to_ktx2_as};
+    let full = to_ktx2_as(&asset, "t", TexelFormat::Rgba32F).unwrap();
+    assert_eq!(u32::from_le_bytes(full[12..16].try_into().unwrap()), 109);
+    let e = to_ktx2_as(&asset, "t", TexelFormat::Rgba16F).unwrap_err().to_string();
+    assert!(e.contains("65504"), "{e}");
+    // a dim one fits, and is half the level size
+    let light = Lighting::new(CubeMap::constant(8, [1.0, 2.0, 0.5]));
+    let b = bake(&occ, &light, &params(8, 5, 3, 1.0, 3.0), Shard::WHOLE, &NoProgress).unwrap();
+    let bytes = to_bytes(&b, &light, occ.mesh(), Storage::F32);
+    let owned = penumbra_asset::OwnedAsset::parse(&bytes).unwrap();
+    let (f32_len, f16_len) = (
+        to_ktx2_as(&owned.asset(), "t", TexelFormat::Rgba32F).unwrap().len(),
+        to_ktx2_as(&owned.asset(), "t", TexelFormat::Rgba16F).unwrap(),
+    );
+    assert_eq!(u32::from_le_bytes(f16_len[12..16].try_into().unwrap()), 97);
+    let level = 8 * 5 * 9 * 8;
+    assert!(f16_len.len() >= level && f32_len >= 2 * level && f32_len - f16_len.len() >= level - 16);
+}
+
+#[test]
 fn sphere_cap_fiv_matches_the_analytic_integral() {
     // a sphere of radius 1 seen from distance ρ hides the cap of half-angle α = asin(1/ρ);
     // under constant radiance L, FIV = L·∫_cap ω dΩ = L·π sin²α toward the centre

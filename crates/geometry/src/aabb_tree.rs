@@ -159,6 +159,57 @@ impl AabbTree {
         best
     }
 
+    /// Calls `f(slot)` for every triangle slot of a leaf whose box, grown by `pad` on every
+    /// side, meets the ray `o + t·d`, `t ≥ 0` (`d` non-zero and finite). Conservative for
+    /// every triangle with a point within `pad` of the ray, up to the slab test's rounding,
+    /// which `pad` must dominate.
+    pub fn ray_slots(&self, o: DVec3, d: DVec3, pad: f64, mut f: impl FnMut(usize)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let inv = DVec3::ONE / d;
+        let meets = |n: &TreeNode| {
+            let (lo, hi) = (n.min - DVec3::splat(pad), n.max + DVec3::splat(pad));
+            let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+            for k in 0..3 {
+                if d[k] == 0.0 {
+                    if o[k] < lo[k] || o[k] > hi[k] {
+                        return false;
+                    }
+                    continue;
+                }
+                let a = (lo[k] - o[k]) * inv[k];
+                let b = (hi[k] - o[k]) * inv[k];
+                let (a, b) = if a <= b { (a, b) } else { (b, a) };
+                t0 = t0.max(a);
+                t1 = t1.min(b);
+            }
+            t0 <= t1
+        };
+        let mut stack = [0u32; STACK];
+        let mut sp = 0usize;
+        if meets(&self.nodes[0]) {
+            sp = 1;
+        }
+        while sp > 0 {
+            sp -= 1;
+            let ni = stack[sp];
+            let node = &self.nodes[ni as usize];
+            if node.is_leaf() {
+                for slot in node.start as usize..(node.start + node.count) as usize {
+                    f(slot);
+                }
+                continue;
+            }
+            for child in [ni + 1, node.right] {
+                if meets(&self.nodes[child as usize]) {
+                    stack[sp] = child;
+                    sp += 1;
+                }
+            }
+        }
+    }
+
     /// Depth of the tree (1 for a single leaf, 0 when empty).
     #[cfg(test)]
     pub fn depth(&self) -> usize {

@@ -517,7 +517,9 @@ fn run_export(a: &FivExportArgs) -> Result<ExitCode, CliError> {
     let start = Instant::now();
     let file = AssetFile::open(&a.asset).with_context(|| format!("cannot read FIV asset {}", a.asset.display()))?;
     let asset = file.asset();
-    let bytes = penumbra_fiv::ktx2::to_ktx2(&asset, concat!("penumbra ", env!("CARGO_PKG_VERSION")))
+    let format =
+        if a.half { penumbra_fiv::ktx2::TexelFormat::Rgba16F } else { penumbra_fiv::ktx2::TexelFormat::Rgba32F };
+    let bytes = penumbra_fiv::ktx2::to_ktx2_as(&asset, concat!("penumbra ", env!("CARGO_PKG_VERSION")), format)
         .map_err(|e| CliError::input(anyhow!("{}: {e}", a.asset.display())))?;
     ensure_parent(&a.ktx2)?;
     penumbra_asset::write_file_atomic(&a.ktx2, &bytes).with_context(|| format!("cannot write {}", a.ktx2.display()))?;
@@ -525,7 +527,7 @@ fn run_export(a: &FivExportArgs) -> Result<ExitCode, CliError> {
     let v = json!({
         "output": a.ktx2.display().to_string(),
         "bytes": bytes.len(),
-        "format": "R32G32B32A32_SFLOAT",
+        "format": format.name(),
         "extent": [dims[0], dims[1], 3 * dims[2]],
         "seconds": start.elapsed().as_secs_f64(),
     });
@@ -535,9 +537,10 @@ fn run_export(a: &FivExportArgs) -> Result<ExitCode, CliError> {
         #[allow(clippy::print_stderr)]
         {
             eprintln!(
-                "wrote {} ({} bytes): RGBA32F 3D texture {}×{}×{} (3 slabs of {} shells)",
+                "wrote {} ({} bytes): {} 3D texture {}×{}×{} (3 slabs of {} shells)",
                 a.ktx2.display(),
                 bytes.len(),
+                if a.half { "RGBA16F" } else { "RGBA32F" },
                 dims[0],
                 dims[1],
                 3 * dims[2],
