@@ -201,7 +201,8 @@ fn bake_config_spheres_stage() {
     let cfg = dir.path().join("scene.toml");
     std::fs::write(
         &cfg,
-        "output_dir = \"out\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\nmethod = \"octree\"\noutput = \"oct.sphr\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\npolish = true\noutput = \"pol.sphr\"\n",
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\nmethod = \"octree\"\noutput = \"oct.sphr\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\npolish = true\noutput = \"pol.sphr\"\n\
+         [[spheres]]\nmesh = \"c.obj\"\ntarget_union = 2.5\nmax_count = 16\ngrid = 16\niterations = 4\noutput = \"tu.sphr\"\n",
     )
     .unwrap();
     let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
@@ -240,6 +241,27 @@ fn bake_config_spheres_stage() {
     let q = AssetFile::open(dir.path().join("out/pol.sphr")).unwrap();
     assert_eq!(p.asset().section("spheres").unwrap().bytes(), q.asset().section("spheres").unwrap().bytes());
     assert_ne!(p.asset().section("spheres").unwrap().bytes(), a.asset().section("spheres").unwrap().bytes());
+    // `target_union` + `max_count` are the command's --target-union/--max-count search
+    let tu = dir.path().join("tu.sphr");
+    let (code, _, stderr) = run(penumbra()
+        .arg("spheres")
+        .arg(dir.path().join("c.obj"))
+        .args(["--target-union", "2.5", "--max-count", "16", "--grid", "16", "--iterations", "4", "-o"])
+        .arg(&tu));
+    assert_eq!(code, 0, "{stderr}");
+    let t = AssetFile::open(&tu).unwrap();
+    let u = AssetFile::open(dir.path().join("out/tu.sphr")).unwrap();
+    assert_eq!(t.asset().section("spheres").unwrap().bytes(), u.asset().section("spheres").unwrap().bytes());
+    // a cap with a fixed count, or two targets, is a config error (exit 2) naming the key
+    for (extra, want) in
+        [("count = 6\nmax_count = 8\n", "max_count"), ("count = 6\ntarget_union = 0.5\n", "exactly one")]
+    {
+        let bad = dir.path().join("bad.toml");
+        std::fs::write(&bad, format!("output_dir = \"out2\"\n[[spheres]]\nmesh = \"c.obj\"\n{extra}")).unwrap();
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&bad));
+        assert_eq!(code, 2, "{extra}: {stderr}");
+        assert!(stderr.contains(want), "{extra}: {stderr}");
+    }
 }
 
 #[test]

@@ -91,12 +91,21 @@ pub enum SphereMethod {
 pub struct SpheresStage {
     /// Mesh file (.obj, .gltf, .glb), relative to this config.
     pub mesh: String,
-    /// Number of spheres, 1..=4096 (give this or `target_error`).
+    /// Number of spheres, 1..=4096 (give exactly one of this, `target_error` and
+    /// `target_union`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub count: Option<u32>,
     /// Fit the smallest count whose outside volume ratio E is at most this (> 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f64>,
+    /// Fit the smallest count whose union outside ratio is at most this (> 0; what leaks
+    /// light: `penumbra spheres --target-union`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_union: Option<f64>,
+    /// With a target: the largest count the search tries, 1..=4096 (default 256; an
+    /// unreachable target writes the best set and says so in the stage's metrics).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_count: Option<u32>,
     /// `lloyd` (default) or `octree`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<SphereMethod>,

@@ -57,17 +57,31 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
         if sp.mesh.trim().is_empty() {
             out.push(issue(&key("mesh"), "must not be empty"));
         }
-        match (sp.count, sp.target_error) {
-            (Some(_), Some(_)) | (None, None) => {
-                out.push(issue(&format!("spheres[{i}]"), "give exactly one of `count` or `target_error`"))
+        let given = [sp.count.is_some(), sp.target_error.is_some(), sp.target_union.is_some()];
+        if given.iter().filter(|&&g| g).count() != 1 {
+            out.push(issue(&format!("spheres[{i}]"), "give exactly one of `count`, `target_error` and `target_union`"));
+        }
+        if let Some(n) = sp.count
+            && !(1..=4096).contains(&n)
+        {
+            out.push(issue(&key("count"), format!("{n} is out of range (allowed: 1..=4096)")));
+        }
+        for (k, v) in [("target_error", sp.target_error), ("target_union", sp.target_union)] {
+            if let Some(e) = v
+                && !(e > 0.0 && e.is_finite())
+            {
+                out.push(issue(&key(k), format!("{e} is out of range (allowed: a positive number)")));
             }
-            (Some(n), None) if !(1..=4096).contains(&n) => {
-                out.push(issue(&key("count"), format!("{n} is out of range (allowed: 1..=4096)")))
+        }
+        if let Some(m) = sp.max_count {
+            if sp.count.is_some() {
+                out.push(issue(
+                    &key("max_count"),
+                    "caps a `target_error`/`target_union` search; with `count` it has no effect",
+                ));
+            } else if !(1..=4096).contains(&m) {
+                out.push(issue(&key("max_count"), format!("{m} is out of range (allowed: 1..=4096)")));
             }
-            (None, Some(e)) if !(e > 0.0 && e.is_finite()) => {
-                out.push(issue(&key("target_error"), format!("{e} is out of range (allowed: a positive number)")))
-            }
-            _ => {}
         }
         if let Some(g) = sp.grid {
             if !(8..=256).contains(&g) {

@@ -131,12 +131,16 @@ fn run_spheres(
             mesh.display()
         )));
     }
-    let target = match (sp.count, sp.target_error) {
-        (Some(n), _) => Target::Count(n as usize),
-        (None, Some(e)) => Target::Error(e),
-        (None, None) => return Err(CliError::internal(anyhow!("spheres[{index}] has no target (validated config)"))),
+    let target = match (sp.count, sp.target_error, sp.target_union) {
+        (Some(n), _, _) => Target::Count(n as usize),
+        (None, Some(e), _) => Target::Error(e),
+        (None, None, Some(u)) => Target::Union(u),
+        (None, None, None) => {
+            return Err(CliError::internal(anyhow!("spheres[{index}] has no target (validated config)")));
+        }
     };
     let mut params = FitParams::new(target);
+    params.max_count = sp.max_count.map_or(params.max_count, |m| m as usize);
     params.method = match sp.method.unwrap_or(penumbra_config::SphereMethod::Lloyd) {
         penumbra_config::SphereMethod::Lloyd => penumbra_spheres::Method::Lloyd,
         penumbra_config::SphereMethod::Octree => penumbra_spheres::Method::Octree,
