@@ -342,3 +342,70 @@ fn gltf_lightmap_uvs_are_the_clutter_charts() {
     assert!(stderr.contains("lightmap_res"), "{stderr}");
     assert!(!out.exists(), "no output on error");
 }
+
+#[test]
+fn moving_one_pillar_re_bakes_incrementally_to_the_full_bake_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let level = dir.path().join("room.toml");
+    std::fs::write(&level, "[[block]]\nshape = \"closed\"\ntranslation = [0.5, 0.5, 0.5]\n").unwrap();
+    let pillars = |x1: f64, albedo: f64| {
+        let mut s = String::new();
+        for (x, z) in [(0.25, 0.25), (x1, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+            s += &format!(
+                "[[clutter]]\nbox = {{ size = [0.12, 0.75, 0.12], faces = \"no-bottom\" }}\n\
+                 translate = [{x}, 0.0, {z}]\nalbedo = {albedo}\n"
+            );
+        }
+        s
+    };
+    let c = dir.path().join("c.toml");
+    let state = dir.path().join("s.state");
+    let bake = |src: &str, out: &str, with_state: bool, extra: &[&str]| {
+        std::fs::write(&c, src).unwrap();
+        let mut args = vec!["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap()];
+        if with_state {
+            args.extend(["--state", state.to_str().unwrap()]);
+        }
+        args.extend(extra);
+        let out = dir.path().join(out);
+        let (code, v, stderr) = drt_json(&args, &d, &out);
+        assert_eq!(code, 0, "{stderr}");
+        (v, std::fs::read(&out).unwrap())
+    };
+    let (v, _) = bake(&pillars(0.75, 0.6), "a.drto", true, &[]);
+    assert_eq!(v["incremental"]["used"], false);
+    assert_eq!(v["incremental"]["reason"], "no state file yet");
+    // move pillar 1: only its rays and the rays that meet it are traced, to the same bytes
+    let (v, inc) = bake(&pillars(0.6, 0.6), "b.drto", true, &[]);
+    let i = &v["incremental"];
+    assert_eq!(i["used"], true, "{v}");
+    assert_eq!(i["moved"].as_array().unwrap().len(), 1, "{v}");
+    assert!(i["moved"][0].as_str().unwrap().contains("clutter[1]"), "{v}");
+    assert!(i["rays_cast"].as_u64().unwrap() < i["rays_full"].as_u64().unwrap() / 2, "{v}");
+    let (_, full) = bake(&pillars(0.6, 0.6), "b_full.drto", false, &[]);
+    assert!(inc == full, "the incremental bake's bytes are a full bake's");
+    // a new albedo moves nothing: no ray is cast, the asset carries the new albedo
+    let (v, inc) = bake(&pillars(0.6, 0.3), "c.drto", true, &[]);
+    assert_eq!(v["incremental"]["used"], true, "{v}");
+    assert_eq!(v["incremental"]["rays_cast"], 0, "{v}");
+    let (_, full) = bake(&pillars(0.6, 0.3), "c_full.drto", false, &[]);
+    assert!(inc == full);
+    // other parameters: a full bake, and the reason
+    let (v, _) = bake(&pillars(0.6, 0.3), "d.drto", true, &["--kc", "4"]);
+    assert_eq!(v["incremental"]["used"], false);
+    assert_eq!(v["incremental"]["reason"], "the dictionary, level or parameters changed");
+    // a corrupt state is named and replaced by a full bake
+    let mut b = std::fs::read(&state).unwrap();
+    let n = b.len();
+    b[n / 2] ^= 0x10;
+    std::fs::write(&state, b).unwrap();
+    let (v, _) = bake(&pillars(0.6, 0.3), "e.drto", true, &["--kc", "4"]);
+    assert!(v["incremental"]["reason"].as_str().unwrap().contains("checksum mismatch"), "{v}");
+    // --state and --shard do not go together
+    let out = dir.path().join("f.drto");
+    let (code, _, stderr) =
+        drt_json(&["--example", "pillars", "--state", state.to_str().unwrap(), "--shard", "0/2"], &d, &out);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(!out.exists());
+}

@@ -335,7 +335,7 @@ impl BoxGeom {
 /// `inv = 1/d` (±∞ for a zero component: the NaN of `0·∞` fails both comparisons below only
 /// when the origin lies exactly on a face plane, which the padding keeps away from).
 #[inline]
-fn slab_inv(&[lo, hi]: &[[f64; 3]; 2], o: [f64; 3], inv: [f64; 3], mut t0: f64, mut t1: f64) -> bool {
+pub(crate) fn slab_inv(&[lo, hi]: &[[f64; 3]; 2], o: [f64; 3], inv: [f64; 3], mut t0: f64, mut t1: f64) -> bool {
     for k in 0..3 {
         let (a, b) = ((lo[k] - o[k]) * inv[k], (hi[k] - o[k]) * inv[k]);
         let (a, b) = if a > b { (b, a) } else { (a, b) };
@@ -1017,6 +1017,12 @@ impl ClutterScene {
             point: [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]],
             normal: n,
         })
+    }
+
+    /// Instance `i`'s world bounds, padded as the ray queries test them: a ray that misses
+    /// them meets nothing of the instance.
+    pub fn padded_bounds(&self, i: usize) -> [[f64; 3]; 2] {
+        self.padded[i]
     }
 
     /// Whether instance `i` is a box (met analytically; convex).

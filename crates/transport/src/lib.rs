@@ -32,6 +32,7 @@ pub mod drt;
 pub mod drt_asset;
 pub mod drt_examples;
 pub mod drt_reference;
+pub mod drt_state;
 pub mod gather;
 pub mod interface;
 pub mod level;

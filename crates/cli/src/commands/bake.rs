@@ -293,7 +293,7 @@ fn run_drt(
     force: bool,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
-    use super::drt::{DrtSceneArgs, bake_scene, cache_key, load_scene};
+    use super::drt::{DrtSceneArgs, bake_scene_stateful, cache_key, load_scene};
     use super::mrt_level::LevelSource;
     let (Some(d), Some(m)) = (&cfg.config.drt, &cfg.config.mrt) else {
         return Err(CliError::internal(anyhow!("drt stage selected but not configured")));
@@ -334,12 +334,16 @@ fn run_drt(
     };
     let key = cache_key(&sc, &params);
     let output = out_dir.join(d.output_name());
+    // the rays' sums beside the asset: moving clutter re-bakes only the rays it touches
+    let state = out_dir.join(format!("{}.state", d.output_name()));
     cached_or_bake("drt", "DRTO", &output, &key, force, || {
         let start = Instant::now();
-        let (b, bytes) = bake_scene(&sc, &params, mode)?;
+        let (b, bytes, sb, inc) = bake_scene_stateful(&sc, &params, &state, mode)?;
         penumbra_asset::write_file_atomic(&output, &bytes)
             .with_context(|| format!("cannot write {}", output.display()))?;
-        let metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+        penumbra_asset::write_file_atomic(&state, &sb).with_context(|| format!("cannot write {}", state.display()))?;
+        let mut metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+        metrics["incremental"] = inc;
         Ok(Baked { bytes: bytes.len() as u64, seconds: start.elapsed().as_secs_f64(), metrics })
     })
 }

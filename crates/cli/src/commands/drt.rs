@@ -10,10 +10,12 @@ use anyhow::{Context, anyhow};
 use clap::Args;
 use penumbra_asset::AssetFile;
 use penumbra_config::clutter::{BoxFacesName, ChartsName, load_clutter};
+use penumbra_transport::TransportError;
 use penumbra_transport::clutter::{BoxFaces, ClutterScene, ClutterShape, ClutterSpec, quat_y};
-use penumbra_transport::drt::{DrtDict, DrtParams, DrtShard, KcMode, bake_shard};
+use penumbra_transport::drt::{DrtDict, DrtParams, DrtShard, KcMode, bake_incremental, bake_shard, bake_with_state};
 use penumbra_transport::drt_asset::{DrtInputs, to_asset};
 use penumbra_transport::drt_examples::example;
+use penumbra_transport::drt_state::{DrtState, StateInstance};
 use penumbra_transport::level::{Level, Links};
 use penumbra_transport::level_ops::DictOps;
 use penumbra_transport::level_reference::PointLight;
@@ -74,6 +76,9 @@ pub struct DrtScene {
     pub clutter_json: Vec<Value>,
     /// The example's lights, if an example.
     pub example_lights: Option<Vec<PointLight>>,
+    /// The clutter as given (before the scene normalises it), the texels per box-face edge
+    /// and charts per face edge: what rebuilds a previous placement exactly.
+    pub raw_clutter: (Vec<ClutterSpec>, usize, usize),
 }
 
 fn box_json(s: &ClutterSpec) -> Value {
@@ -243,15 +248,26 @@ pub fn load_scene(a: &DrtSceneArgs) -> Result<DrtScene, CliError> {
         specs.extend(s);
         desc.extend(d);
     }
-    let clutter = ClutterScene::with_basis(&specs, a.clutter_res as usize, a.clutter_basis_res as usize)
-        .map_err(|e| CliError::input(anyhow!("clutter: {e}")))?;
+    let (res, basis) = (a.clutter_res as usize, a.clutter_basis_res as usize);
+    let clutter = ClutterScene::with_basis(&specs, res, basis).map_err(|e| CliError::input(anyhow!("clutter: {e}")))?;
     // the atlas size a lightmapped mesh got (the engine addresses its texels by it)
     for (d, &n) in desc.iter_mut().zip(&clutter.lightmap_res) {
         if let (Some(o), true) = (d.as_object_mut(), n > 0) {
             o.insert("lightmap_res".into(), json!(n));
         }
     }
-    Ok(DrtScene { ops, dict, level, links, what, level_asset, clutter, clutter_json: desc, example_lights })
+    Ok(DrtScene {
+        ops,
+        dict,
+        level,
+        links,
+        what,
+        level_asset,
+        clutter,
+        clutter_json: desc,
+        example_lights,
+        raw_clutter: (specs, res, basis),
+    })
 }
 
 impl DrtScene {
@@ -343,8 +359,13 @@ pub struct DrtArgs {
     pub bake: DrtBakeArgs,
     /// Bake shard K of N (receiving blocks and clutter instances j with j mod N = K); join the
     /// shards with `penumbra drt merge`.
-    #[arg(long, value_name = "K/N")]
+    #[arg(long, value_name = "K/N", conflicts_with = "state")]
     pub shard: Option<String>,
+    /// Keep the rays' sums in FILE; when FILE holds a bake of the same dictionary, level,
+    /// parameters and clutter shapes, re-trace only the rays that meet clutter that moved
+    /// (the bytes of a full bake; docs/drt.md, "Incremental re-bakes").
+    #[arg(long, value_name = "FILE")]
+    pub state: Option<PathBuf>,
     /// Output asset (.drto).
     #[arg(short = 'o', long, required = true)]
     pub output: Option<PathBuf>,
@@ -380,6 +401,131 @@ pub fn cache_key(sc: &DrtScene, params: &DrtParams) -> String {
     )
     .to_hex()
     .to_string()
+}
+
+/// The key a DRT state file must carry to be used: [`cache_key`] without the clutter.
+pub fn state_key(sc: &DrtScene, params: &DrtParams) -> String {
+    let inputs = sc.inputs();
+    let (_, res, basis) = &sc.raw_clutter;
+    blake3::hash(
+        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "drt-state", "dict": sc.ops.crc32c,
+               "level_asset": inputs.level_crc32c, "level": inputs.level, "params": params.to_json(),
+               "clutter_res": res, "clutter_basis_res": basis})
+        .to_string()
+        .as_bytes(),
+    )
+    .to_hex()
+    .to_string()
+}
+
+/// Per instance, its shape's hash (its description without placement, albedo and name) and
+/// its placement as given.
+fn state_instances(sc: &DrtScene) -> Vec<StateInstance> {
+    sc.clutter_json
+        .iter()
+        .zip(&sc.raw_clutter.0)
+        .map(|(d, s)| {
+            let mut d = d.clone();
+            if let Some(o) = d.as_object_mut() {
+                for k in ["translate", "rotate", "scale", "albedo", "name"] {
+                    o.remove(k);
+                }
+            }
+            StateInstance {
+                shape_key: blake3::hash(d.to_string().as_bytes()).to_hex().to_string(),
+                translate: s.translate,
+                rotate: s.rotate,
+                scale: s.scale,
+            }
+        })
+        .collect()
+}
+
+/// Bakes with a state file (`--state`, and the bake config's `[drt]` stage): incrementally
+/// when the file holds a comparable bake, else in full; the file then holds this bake's sums.
+/// Returns the bake, the asset bytes, the new state's bytes and the `incremental` report.
+pub fn bake_scene_stateful(
+    sc: &DrtScene,
+    params: &DrtParams,
+    state_path: &Path,
+    mode: ProgressMode,
+) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Vec<u8>, Value), CliError> {
+    let key = state_key(sc, params);
+    let insts = state_instances(sc);
+    let prev = match std::fs::read(state_path) {
+        Ok(b) => DrtState::from_bytes(&b).map_err(|e| format!("{}: {e}", state_path.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err("no state file yet".into()),
+        Err(e) => Err(format!("cannot read {}: {e}", state_path.display())),
+    };
+    let prev = prev.and_then(|st| {
+        if st.key != key {
+            Err("the dictionary, level or parameters changed".into())
+        } else if st.instances.len() != insts.len() {
+            Err(format!("{} clutter instances before, {} now", st.instances.len(), insts.len()))
+        } else if let Some(i) = (0..insts.len()).find(|&i| st.instances[i].shape_key != insts[i].shape_key) {
+            Err(format!("clutter {i} ({}) changed shape", sc.clutter.specs[i].name))
+        } else {
+            Ok(st)
+        }
+    });
+    let rep = Reporter::new("drt", mode);
+    let mut report = json!({"state": state_path.display().to_string(), "used": false});
+    let (b, state) = match prev {
+        Ok(mut st) => {
+            let moved: Vec<usize> = (0..insts.len())
+                .filter(|&i| {
+                    let (a, b) = (&st.instances[i], &insts[i]);
+                    (a.translate, a.rotate, a.scale) != (b.translate, b.rotate, b.scale)
+                })
+                .collect();
+            let (raw, res, basis) = &sc.raw_clutter;
+            let mut old_specs = raw.clone();
+            for &i in &moved {
+                let s = &st.instances[i];
+                (old_specs[i].translate, old_specs[i].rotate, old_specs[i].scale) = (s.translate, s.rotate, s.scale);
+            }
+            let old = ClutterScene::with_basis(&old_specs, *res, *basis)
+                .map_err(|e| CliError::input(anyhow!("{}: the previous clutter: {e}", state_path.display())))?;
+            match bake_incremental(&sc.level, &sc.links, &sc.dict, &old, &sc.clutter, &moved, &mut st, params, &rep) {
+                Ok((b, stats)) => {
+                    st.instances = insts;
+                    let names: Vec<&str> = moved.iter().map(|&i| sc.clutter.specs[i].name.as_str()).collect();
+                    report = json!({"state": state_path.display().to_string(), "used": true, "moved": names,
+                                    "rays_cast": stats.rays_cast, "rays_full": stats.rays_full,
+                                    "texels_changed": stats.texels_changed,
+                                    "blocks_traced_in_full": stats.blocks_traced_in_full});
+                    (b, st)
+                }
+                Err(TransportError::Param(why)) => {
+                    report["reason"] = json!(why);
+                    full_with_state(sc, params, key, insts, &rep)?
+                }
+                Err(e) => return Err(CliError::input(anyhow!("{e}"))),
+            }
+        }
+        Err(why) => {
+            report["reason"] = json!(why);
+            full_with_state(sc, params, key, insts, &rep)?
+        }
+    };
+    rep.finish();
+    let inputs = sc.inputs();
+    let asset = to_asset(&b, &sc.clutter, &inputs, Some(&cache_key(sc, params))).map_err(CliError::internal)?;
+    let bytes = asset.to_bytes().map_err(CliError::internal)?;
+    let sb = state.to_bytes();
+    report["state_bytes"] = json!(sb.len());
+    Ok((b, bytes, sb, report))
+}
+
+fn full_with_state(
+    sc: &DrtScene,
+    params: &DrtParams,
+    key: String,
+    insts: Vec<StateInstance>,
+    rep: &Reporter,
+) -> Result<(penumbra_transport::drt::DrtBake, DrtState), CliError> {
+    bake_with_state(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, key, insts, rep)
+        .map_err(|e| CliError::input(anyhow!("{e}")))
 }
 
 /// Bakes the scene's operators; returns the bake and the asset bytes.
@@ -427,10 +573,23 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let params = a.bake.params(a.scene.clutter_res, a.scene.clutter_basis_res);
     let output = a.output.as_deref().unwrap_or(Path::new("out.drto"));
     let t0 = Instant::now();
-    let (b, bytes) = bake_scene_shard(&sc, &params, shard, mode)?;
+    let (b, bytes, state) = match &a.state {
+        Some(p) => {
+            let (b, bytes, sb, rep) = bake_scene_stateful(&sc, &params, p, mode)?;
+            (b, bytes, Some((p, sb, rep)))
+        }
+        None => {
+            let (b, bytes) = bake_scene_shard(&sc, &params, shard, mode)?;
+            (b, bytes, None)
+        }
+    };
     let bake_seconds = t0.elapsed().as_secs_f64();
     ensure_parent(output)?;
     penumbra_asset::write_file_atomic(output, &bytes).with_context(|| format!("cannot write {}", output.display()))?;
+    if let Some((p, sb, _)) = &state {
+        ensure_parent(p)?;
+        penumbra_asset::write_file_atomic(p, sb).with_context(|| format!("cannot write {}", p.display()))?;
+    }
     let mut v = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
     if let Some(o) = v.as_object_mut() {
         o.insert("level".into(), json!(sc.what));
@@ -442,6 +601,9 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         o.insert("output".into(), json!(output.display().to_string()));
         if shard.count > 1 {
             o.insert("shard".into(), json!({"index": shard.index, "count": shard.count}));
+        }
+        if let Some((_, _, rep)) = &state {
+            o.insert("incremental".into(), rep.clone());
         }
     }
     if a.json {
@@ -464,6 +626,19 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             bytes.len(),
             start.elapsed().as_secs_f64()
         );
+        if let Some((p, _, r)) = &state {
+            if r["used"] == json!(true) {
+                eprintln!(
+                    "  incremental from {}: moved {}, cast {} of a full bake's {} rays",
+                    p.display(),
+                    r["moved"],
+                    r["rays_cast"],
+                    r["rays_full"]
+                );
+            } else {
+                eprintln!("  baked in full ({}); {} now holds this bake's sums", r["reason"], p.display());
+            }
+        }
     }
     Ok(ExitCode::Ok)
 }

@@ -1,0 +1,548 @@
+//! The rays' sums of a DRT bake in fixed point, and incremental re-bakes from them (the
+//! thesis's level-design loop, MRT thesis §5.4.4: move a pillar, see its effect).
+//!
+//! # Why fixed point
+//! Moving one clutter instance changes only the rays that meet it, at its old or its new
+//! place: about a tenth of a room's rays. An incremental re-bake keeps every texel's sums,
+//! re-traces those rays in the old scene (subtracting what they gave) and in the new one
+//! (adding), and assembles the operators again. For the result to be the bytes of a full
+//! bake of the new scene, a texel's sums must not depend on the order of their additions
+//! or on which rays were added and removed before: they are integers.
+//! - A ray's bilinear weight `w` on a wall texel adds `round(w·2¹⁶)` to that texel's
+//!   weight `W_t` (`W_SCALE`).
+//! - `L_imp` of each shape is quantized once to `Lq = round(L_imp·s)`, `s` a power of two
+//!   with `max |Lq| ≤ 2²²` ([`quantize`]).
+//! - A texel's row per block is `Σ_t W_t·Lq_t` in `i64` (at most `rays·2¹⁶·2²²` ≤ 2⁵⁸ for
+//!   the 2²⁰ rays the parameters allow), linear in `W`, so a re-traced ray's change is exact.
+//! - Chart hits and back-face hits are counts.
+//!
+//! The operators are then `ΔU_b = −(ρ/N)·row/(2¹⁶·s)`, `C_b = (ρ/N)·row/(2¹⁶·s)`,
+//! `ΔU_c = hits/(N·√m_j)` (`crate::drt`). The rounding of `w` changes a row by at most
+//! `4·2⁻¹⁷` of one ray's weight per ray, and of `L_imp` by `2⁻²³` of its largest entry: far
+//! below the f16 the asset stores (tested against the exact `(F_clutter − F)·L_imp`).
+//!
+//! # Which rays are re-traced
+//! A ray's outcome (the first clutter it meets, the wall behind) can change only if it meets
+//! a moved instance in the old or the new scene; the closest-hit search first tests each
+//! instance's padded world box, so a ray that misses both padded boxes (for `t ≥ 0`, a
+//! superset of every segment the search tests) gives the same outcome in both scenes and
+//! is not re-traced. A moved instance's own texels are traced again in full.
+
+use crate::TransportError;
+use crate::clutter::ClutterScene;
+use crate::drt::{DrtDict, RayHit, Scene, frame_dir, rotate_z, rotation};
+use crate::gather::DirectionSet;
+use crate::level::Level;
+use crate::shape::face_uv;
+use serde::{Deserialize, Serialize};
+
+/// Fixed-point scale of a bilinear weight.
+pub const W_SCALE: f64 = 65536.0;
+
+/// Bits of a quantized `L_imp` entry's magnitude.
+pub const L_BITS: i32 = 22;
+
+/// `L_imp` quantized to `i32` with a power-of-two scale `s`: `Lq = round(L·s)`, the largest
+/// `|Lq| ≤ 2^L_BITS`. Returns `(Lq, s)`.
+pub fn quantize(l: &[f64]) -> (Vec<i32>, f64) {
+    let m = l.iter().fold(0.0f64, |a, &x| a.max(x.abs()));
+    if m == 0.0 || !m.is_finite() {
+        return (vec![0; l.len()], 1.0);
+    }
+    let e = m.log2().ceil() as i32;
+    let s = 2f64.powi(L_BITS - e);
+    (l.iter().map(|&x| (x * s).round() as i32).collect(), s)
+}
+
+/// One texel's sums (canonical: sorted keys, no zero entries).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Sums {
+    /// `(block, Σ_t W_t·Lq_t per mode)`, ascending blocks.
+    pub rows: Vec<(u32, Vec<i64>)>,
+    /// `(chart, front hits)`, ascending charts.
+    pub charts: Vec<(u32, i64)>,
+    /// Rays meeting clutter from behind.
+    pub back: i64,
+}
+
+impl Sums {
+    /// No contribution at all.
+    pub fn is_zero(&self) -> bool {
+        self.rows.is_empty() && self.charts.is_empty() && self.back == 0
+    }
+
+    /// `self += d`, keeping the canonical form.
+    pub fn add(&mut self, d: &Sums) {
+        let old = core::mem::take(&mut self.rows);
+        let mut rows = Vec::with_capacity(old.len() + d.rows.len());
+        let mut b = d.rows.iter().peekable();
+        for (k, mut r) in old {
+            while let Some(y) = b.next_if(|y| y.0 < k) {
+                rows.push(y.clone());
+            }
+            if let Some((_, s)) = b.next_if(|y| y.0 == k) {
+                for (p, q) in r.iter_mut().zip(s) {
+                    *p += q;
+                }
+                if r.iter().all(|&v| v == 0) {
+                    continue;
+                }
+            }
+            rows.push((k, r));
+        }
+        rows.extend(b.cloned());
+        self.rows = rows;
+        let mut charts = Vec::with_capacity(self.charts.len() + d.charts.len());
+        let (mut i, mut j) = (0, 0);
+        while i < self.charts.len() || j < d.charts.len() {
+            let x = self.charts.get(i).copied();
+            let y = d.charts.get(j).copied();
+            match (x, y) {
+                (Some(x), Some(y)) if x.0 == y.0 => {
+                    if x.1 + y.1 != 0 {
+                        charts.push((x.0, x.1 + y.1));
+                    }
+                    i += 1;
+                    j += 1;
+                }
+                (Some(x), Some(y)) if x.0 < y.0 => {
+                    charts.push(x);
+                    i += 1;
+                }
+                (Some(x), None) => {
+                    charts.push(x);
+                    i += 1;
+                }
+                (_, Some(y)) => {
+                    charts.push(y);
+                    j += 1;
+                }
+                (None, None) => break,
+            }
+        }
+        self.charts = charts;
+        self.back += d.back;
+    }
+}
+
+/// A wall accumulator of one block: fixed-point weights per wall texel and the texels
+/// touched since the last [`Acc::take`].
+#[derive(Debug)]
+struct Slot {
+    block: usize,
+    w: Vec<i64>,
+    on: Vec<bool>,
+    touched: Vec<usize>,
+}
+
+/// One texel's accumulators, reused across texels (nothing is zeroed but what was touched).
+#[derive(Debug)]
+pub(crate) struct Acc {
+    slots: Vec<Slot>,
+    used: Vec<usize>,
+    charts: Vec<i64>,
+    chart_on: Vec<bool>,
+    chart_touched: Vec<usize>,
+    back: i64,
+}
+
+impl Acc {
+    pub(crate) fn new(charts: usize) -> Self {
+        Self {
+            slots: Vec::new(),
+            used: Vec::new(),
+            charts: vec![0; charts],
+            chart_on: vec![false; charts],
+            chart_touched: Vec::new(),
+            back: 0,
+        }
+    }
+
+    /// `sign · (bilinear weights of the wall point (y, face, world q))`.
+    fn wall(&mut self, sc: &Scene<'_>, y: usize, face: usize, q: [f64; 3], sign: i64) {
+        let blk = &sc.geo.level.blocks[y];
+        let tex = &sc.dict.shapes[blk.shape].texels;
+        let (u, v) = face_uv(face, blk.to_local(q));
+        let s = match self.slots.iter().position(|s| s.block == y) {
+            Some(s) => s,
+            None => {
+                let n = tex.len();
+                self.slots.push(Slot { block: y, w: vec![0; n], on: vec![false; n], touched: Vec::new() });
+                self.slots.len() - 1
+            }
+        };
+        let slot = &mut self.slots[s];
+        for (t, bw) in tex.bilinear(face, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
+            // bw ∈ [0, 1]: round half up without a libm call
+            let q = (bw * W_SCALE + 0.5) as i64;
+            if q == 0 {
+                continue;
+            }
+            if slot.touched.is_empty() {
+                self.used.push(s);
+            }
+            if !slot.on[t] {
+                slot.on[t] = true;
+                slot.touched.push(t);
+            }
+            slot.w[t] += sign * q;
+        }
+    }
+
+    fn chart(&mut self, j: usize, sign: i64) {
+        if !self.chart_on[j] {
+            self.chart_on[j] = true;
+            self.chart_touched.push(j);
+        }
+        self.charts[j] += sign;
+    }
+
+    /// The sums since the last call; the accumulators reset.
+    pub(crate) fn take(&mut self, dict: &DrtDict, level: &Level) -> Sums {
+        let mut rows = Vec::with_capacity(self.used.len());
+        for &s in &self.used {
+            let slot = &mut self.slots[s];
+            let sh = &dict.shapes[level.blocks[slot.block].shape];
+            let k = sh.k_b;
+            // integer sums: no order to fix, so the touched texels are not sorted
+            let mut row = vec![0i64; k];
+            for &t in &slot.touched {
+                let w = core::mem::take(&mut slot.w[t]);
+                slot.on[t] = false;
+                if w == 0 {
+                    continue;
+                }
+                for (a, &l) in row.iter_mut().zip(&sh.l_q[t * k..(t + 1) * k]) {
+                    *a += w * i64::from(l);
+                }
+            }
+            slot.touched.clear();
+            if row.iter().any(|&v| v != 0) {
+                rows.push((slot.block as u32, row));
+            }
+        }
+        self.used.clear();
+        rows.sort_unstable_by_key(|r| r.0);
+        self.chart_touched.sort_unstable();
+        let mut charts = Vec::with_capacity(self.chart_touched.len());
+        for &j in &self.chart_touched {
+            let c = core::mem::take(&mut self.charts[j]);
+            self.chart_on[j] = false;
+            if c != 0 {
+                charts.push((j as u32, c));
+            }
+        }
+        self.chart_touched.clear();
+        Sums { rows, charts, back: core::mem::take(&mut self.back) }
+    }
+}
+
+/// Casts the rays of scene texel `t` of block `x` that `keep` selects into each of
+/// `scenes` (same level, other clutter), adding `sign` times each outcome to `acc`; returns
+/// how many rays were kept.
+pub(crate) fn scene_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
+    scenes: &[(&Scene<'_>, i64)],
+    dirs: &DirectionSet,
+    seed: u64,
+    (x, t): (usize, usize),
+    keep: F,
+    acc: &mut Acc,
+    segs: &mut Vec<(usize, f64, f64)>,
+) -> u64 {
+    let sc = scenes[0].0;
+    let blk = &sc.geo.level.blocks[x];
+    let sh = &sc.dict.shapes[blk.shape];
+    let (f, _, _) = sh.texels.coords(t);
+    let p = blk.to_world(sh.texels.position(t));
+    let fr = sc.geo.frame(x, f);
+    let rot = rotation(seed, x as u64, t as u64);
+    let mut kept = 0;
+    for dl in &dirs.dirs {
+        let d = frame_dir(&fr, rotate_z(*dl, rot));
+        if !keep(p, d) {
+            continue;
+        }
+        kept += 1;
+        let wall = sc.geo.trace_segments(x, p, d, segs).map(|h| (h.block, h.face, h.point));
+        for &(s, sign) in scenes {
+            let RayHit::Clutter(wall, hit) = s.resolve(wall, segs, p, d, usize::MAX) else { continue };
+            if let Some((y, g, q)) = wall {
+                acc.wall(sc, y, g, q, sign);
+            }
+            if hit.front {
+                acc.chart(hit.chart, sign);
+            } else {
+                acc.back += sign;
+            }
+        }
+    }
+    kept
+}
+
+/// The origin of clutter texel `i`'s rays and the block it lies in (`None`: its outside is
+/// in no block, so it receives nothing).
+pub(crate) fn clutter_origin(sc: &Scene<'_>, i: usize) -> ([f64; 3], Option<usize>) {
+    let tx = &sc.clutter.texels[i];
+    let n = tx.normal;
+    // off the surface by a hair: the texel's own face is not hit again
+    let eps = 1e-7;
+    let o = [tx.position[0] + eps * n[0], tx.position[1] + eps * n[1], tx.position[2] + eps * n[2]];
+    (o, sc.geo.block_of(o))
+}
+
+/// Casts the rays of clutter texel `i` (from block `b`) that `keep` selects into each of
+/// `scenes`, adding `sign` times each outcome to `acc`; returns how many rays were kept.
+pub(crate) fn clutter_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
+    scenes: &[(&Scene<'_>, i64)],
+    dirs: &DirectionSet,
+    seed: u64,
+    (i, b, o): (usize, usize, [f64; 3]),
+    keep: F,
+    acc: &mut Acc,
+    segs: &mut Vec<(usize, f64, f64)>,
+) -> u64 {
+    let sc = scenes[0].0;
+    let tx = &sc.clutter.texels[i];
+    let (t, bt) = penumbra_math::warp::orthonormal_basis(tx.normal);
+    let fr = [t, bt, tx.normal];
+    let rot = rotation(seed ^ 0x4342, u64::MAX - 1, i as u64);
+    let own = sc.clutter.charts[tx.chart].instance;
+    let skip = if sc.clutter.is_box(own) { own } else { usize::MAX };
+    let mut kept = 0;
+    for dl in &dirs.dirs {
+        let d = frame_dir(&fr, rotate_z(*dl, rot));
+        if !keep(o, d) {
+            continue;
+        }
+        kept += 1;
+        let wall = sc.geo.trace_segments(b, o, d, segs).map(|h| (h.block, h.face, h.point));
+        for &(s, sign) in scenes {
+            match s.resolve(wall, segs, o, d, skip) {
+                RayHit::Wall(y, g, q) => acc.wall(sc, y, g, q, sign),
+                RayHit::Clutter(_, h) if h.front => acc.chart(h.chart, sign),
+                _ => {}
+            }
+        }
+    }
+    kept
+}
+
+/// Per instance, what an incremental re-bake compares: everything that shapes its rays but
+/// its placement (`shape_key`, from the caller), and its placement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StateInstance {
+    /// Hash of the instance's geometry and charting (not its placement or albedo: albedo
+    /// scales the clutter's light at run time and changes no ray).
+    pub shape_key: String,
+    /// World translation.
+    pub translate: [f64; 3],
+    /// Rotation quaternion `[x, y, z, w]`.
+    pub rotate: [f64; 4],
+    /// Uniform scale.
+    pub scale: f64,
+}
+
+/// The sums of a whole bake, what an incremental re-bake starts from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DrtState {
+    /// The caller's hash of everything but the clutter placement (dictionary, level,
+    /// parameters, tool version); a state with another key is not used.
+    pub key: String,
+    /// Per instance.
+    pub instances: Vec<StateInstance>,
+    /// Receiving blocks (ascending) and their texels' sums.
+    pub blocks: Vec<(usize, Vec<Sums>)>,
+    /// Per instance, per texel: the sums, `None` for a texel whose outside is in no block.
+    pub clutter: Vec<Vec<Option<Sums>>>,
+}
+
+const MAGIC: &[u8; 8] = b"PNBDRTS\x01";
+
+#[derive(Serialize, Deserialize)]
+struct Header {
+    key: String,
+    instances: Vec<StateInstance>,
+    blocks: Vec<(usize, usize)>,
+    clutter: Vec<usize>,
+}
+
+fn put_sums(out: &mut Vec<u8>, s: &Sums) {
+    out.extend((s.rows.len() as u32).to_le_bytes());
+    for (b, r) in &s.rows {
+        out.extend(b.to_le_bytes());
+        out.extend((r.len() as u32).to_le_bytes());
+        for v in r {
+            out.extend(v.to_le_bytes());
+        }
+    }
+    out.extend((s.charts.len() as u32).to_le_bytes());
+    for (j, c) in &s.charts {
+        out.extend(j.to_le_bytes());
+        out.extend(c.to_le_bytes());
+    }
+    out.extend(s.back.to_le_bytes());
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], TransportError> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.b.len());
+        let end = end.ok_or_else(|| TransportError::Input("DRT state: truncated".into()))?;
+        let s = &self.b[self.at..end];
+        self.at = end;
+        Ok(s)
+    }
+    fn u32(&mut self) -> Result<u32, TransportError> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap_or_default()))
+    }
+    fn i64(&mut self) -> Result<i64, TransportError> {
+        Ok(i64::from_le_bytes(self.take(8)?.try_into().unwrap_or_default()))
+    }
+    fn sums(&mut self) -> Result<Sums, TransportError> {
+        let nr = self.u32()? as usize;
+        let mut rows = Vec::with_capacity(nr.min(1 << 16));
+        for _ in 0..nr {
+            let b = self.u32()?;
+            let k = self.u32()? as usize;
+            let mut r = Vec::with_capacity(k.min(1 << 16));
+            for _ in 0..k {
+                r.push(self.i64()?);
+            }
+            rows.push((b, r));
+        }
+        let nc = self.u32()? as usize;
+        let mut charts = Vec::with_capacity(nc.min(1 << 16));
+        for _ in 0..nc {
+            charts.push((self.u32()?, self.i64()?));
+        }
+        Ok(Sums { rows, charts, back: self.i64()? })
+    }
+}
+
+impl DrtState {
+    /// The state file's bytes: magic, header JSON, the sums, a CRC-32C of all before it.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let h = Header {
+            key: self.key.clone(),
+            instances: self.instances.clone(),
+            blocks: self.blocks.iter().map(|(b, s)| (*b, s.len())).collect(),
+            clutter: self.clutter.iter().map(Vec::len).collect(),
+        };
+        let hj = serde_json::to_vec(&h).unwrap_or_default();
+        let mut out = Vec::with_capacity(1 << 20);
+        out.extend(MAGIC);
+        out.extend((hj.len() as u64).to_le_bytes());
+        out.extend(&hj);
+        for (_, s) in &self.blocks {
+            for t in s {
+                put_sums(&mut out, t);
+            }
+        }
+        for inst in &self.clutter {
+            for t in inst {
+                match t {
+                    Some(s) => {
+                        out.push(1);
+                        put_sums(&mut out, s);
+                    }
+                    None => out.push(0),
+                }
+            }
+        }
+        let crc = penumbra_asset::crc32c(&out);
+        out.extend(crc.to_le_bytes());
+        out
+    }
+
+    /// Parses [`DrtState::to_bytes`]; `Err` names what is wrong.
+    pub fn from_bytes(b: &[u8]) -> Result<Self, TransportError> {
+        let bad = |m: &str| TransportError::Input(format!("DRT state: {m}"));
+        if b.len() < MAGIC.len() + 8 + 4 || &b[..8] != MAGIC {
+            return Err(bad("not a penumbra DRT state file (or another version)"));
+        }
+        let (body, crc) = b.split_at(b.len() - 4);
+        if penumbra_asset::crc32c(body).to_le_bytes() != crc {
+            return Err(bad("checksum mismatch (truncated or corrupt)"));
+        }
+        let mut r = Reader { b: body, at: 8 };
+        let hl = r.i64()? as usize;
+        let h: Header = serde_json::from_slice(r.take(hl)?).map_err(|e| bad(&format!("header: {e}")))?;
+        let mut blocks = Vec::with_capacity(h.blocks.len());
+        for &(x, n) in &h.blocks {
+            let s = (0..n).map(|_| r.sums()).collect::<Result<Vec<_>, _>>()?;
+            blocks.push((x, s));
+        }
+        let mut clutter = Vec::with_capacity(h.clutter.len());
+        for &n in &h.clutter {
+            let mut v = Vec::with_capacity(n);
+            for _ in 0..n {
+                v.push(if r.take(1)?[0] == 1 { Some(r.sums()?) } else { None });
+            }
+            clutter.push(v);
+        }
+        if r.at != body.len() {
+            return Err(bad("trailing bytes"));
+        }
+        Ok(Self { key: h.key, instances: h.instances, blocks, clutter })
+    }
+}
+
+/// Whether the ray `o + t·d`, `t ≥ 0`, meets any of `boxes` (padded world bounds).
+/// Branch-free: the same interval test as the queries' slab test (so never stricter), and a
+/// NaN (an origin on a box plane with a zero direction component) counts as a hit.
+pub(crate) fn meets_any(boxes: &[[[f64; 3]; 2]], o: [f64; 3], d: [f64; 3]) -> bool {
+    let inv = d.map(|x| 1.0 / x);
+    boxes.iter().any(|[bl, bh]| {
+        let (mut lo, mut hi, mut nan) = (0.0f64, f64::INFINITY, false);
+        for k in 0..3 {
+            let a = (bl[k] - o[k]) * inv[k];
+            let b = (bh[k] - o[k]) * inv[k];
+            nan |= a.is_nan() | b.is_nan();
+            let (a, b) = if a < b { (a, b) } else { (b, a) };
+            lo = if a > lo { a } else { lo };
+            hi = if b < hi { b } else { hi };
+        }
+        nan || lo <= hi
+    })
+}
+
+/// What an incremental re-bake did.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct IncrementalStats {
+    /// Instances whose placement changed.
+    pub moved: Vec<usize>,
+    /// Rays cast (old and new scene together).
+    pub rays_cast: u64,
+    /// Rays a full bake casts.
+    pub rays_full: u64,
+    /// Scene and clutter texels whose sums changed.
+    pub texels_changed: usize,
+    /// Receiving blocks traced in full (new to the neighbourhood).
+    pub blocks_traced_in_full: usize,
+}
+
+/// Checks that `old` and `new` differ only in the placement of `moved` (same instances,
+/// texels and charts per instance), as an incremental re-bake needs.
+pub fn compatible(old: &ClutterScene, new: &ClutterScene) -> Result<(), String> {
+    if old.len() != new.len() {
+        return Err(format!("{} clutter instances before, {} now", old.len(), new.len()));
+    }
+    if old.charts.len() != new.charts.len() {
+        return Err(format!("{} clutter charts before, {} now", old.charts.len(), new.charts.len()));
+    }
+    for i in 0..old.len() {
+        if old.instance_texels[i] != new.instance_texels[i] {
+            return Err(format!("clutter {i} ({}) has another texel count", new.specs[i].name));
+        }
+    }
+    for (a, b) in old.charts.iter().zip(&new.charts) {
+        if (a.instance, a.first, a.count) != (b.instance, b.first, b.count) {
+            return Err(format!("clutter {} ({}) has other charts", b.instance, new.specs[b.instance].name));
+        }
+    }
+    Ok(())
+}
