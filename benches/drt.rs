@@ -37,6 +37,52 @@ fn drt(c: &mut Criterion) {
             penumbra_transport::drt::bake(&ex.level, &links, &dd, &scene, &params, &NoProgress).map(|x| x.du_b.len())
         })
     });
+    // moving one pillar (0.75 → 0.62 along x) from the state of a bake: the rays that meet it
+    // at either place and its own texels' rays (issue goal: ≤ 0.1 s)
+    let inst: Vec<penumbra_transport::drt_state::StateInstance> = ex
+        .clutter
+        .iter()
+        .map(|s| penumbra_transport::drt_state::StateInstance {
+            shape_key: "box".into(),
+            translate: s.translate,
+            rotate: s.rotate,
+            scale: s.scale,
+        })
+        .collect();
+    let (_, state) = penumbra_transport::drt::bake_with_state(
+        &ex.level,
+        &links,
+        &dd,
+        &scene,
+        &params,
+        "bench".into(),
+        inst,
+        &NoProgress,
+    )
+    .expect("state");
+    let mut moved = ex.clutter.clone();
+    moved[1].translate[0] = 0.62;
+    let new = ClutterScene::with_basis(&moved, params.clutter_res, params.clutter_basis_res).expect("clutter");
+    g.bench_function("pillars_move_one_incremental", |b| {
+        b.iter_batched(
+            || state.clone(),
+            |mut st| {
+                penumbra_transport::drt::bake_incremental(
+                    &ex.level,
+                    &links,
+                    &dd,
+                    &scene,
+                    &new,
+                    &[1],
+                    &mut st,
+                    &params,
+                    &NoProgress,
+                )
+                .map(|x| x.1.rays_cast)
+            },
+            criterion::BatchSize::LargeInput,
+        )
+    });
     g.finish();
 
     // runtime: the baked operators through the asset bytes (needs a dictionary with interfaces
