@@ -269,14 +269,37 @@ pub(crate) fn scene_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
             if let Some((y, g, q)) = wall {
                 acc.wall(sc, y, g, q, sign);
             }
-            if hit.front {
-                acc.chart(hit.chart, sign);
-            } else {
-                acc.back += sign;
+            match side(&hit, d) {
+                Side::Chart(j) => acc.chart(j, sign),
+                Side::Back => acc.back += sign,
+                Side::Uncharted => {}
             }
         }
     }
     kept
+}
+
+/// Which side of the clutter a scene ray met.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Side {
+    /// The front of chart `j` (`ΔU_c`).
+    Chart(usize),
+    /// A back face: the inside of an object (the inpainting test counts these).
+    Back,
+    /// The front of a triangle in no chart (a box-projected chart too small for a texel):
+    /// it shadows, but it is neither a chart's light nor a sign of being inside.
+    Uncharted,
+}
+
+/// The side of `hit` a ray along `d` met.
+pub(crate) fn side(hit: &crate::clutter::ClutterHit, d: [f64; 3]) -> Side {
+    if hit.front {
+        Side::Chart(hit.chart)
+    } else if hit.normal[0] * d[0] + hit.normal[1] * d[1] + hit.normal[2] * d[2] < 0.0 {
+        Side::Uncharted
+    } else {
+        Side::Back
+    }
 }
 
 /// The origin of clutter texel `i`'s rays and the block it lies in (`None`: its outside is
@@ -545,4 +568,24 @@ pub fn compatible(old: &ClutterScene, new: &ClutterScene) -> Result<(), String> 
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clutter::ClutterHit;
+
+    #[test]
+    fn an_uncharted_front_face_is_not_a_back_face() {
+        let h =
+            |chart: usize, front: bool| ClutterHit { t: 1.0, chart, front, point: [0.0; 3], normal: [0.0, -1.0, 0.0] };
+        let up = [0.0, 1.0, 0.0];
+        let down = [0.0, -1.0, 0.0];
+        assert_eq!(side(&h(3, true), up), Side::Chart(3));
+        // a ray going up meets a downward face from the front: with no chart it is uncharted
+        assert_eq!(side(&h(usize::MAX, false), up), Side::Uncharted);
+        // going down it meets the same face from behind
+        assert_eq!(side(&h(usize::MAX, false), down), Side::Back);
+        assert_eq!(side(&h(3, false), down), Side::Back);
+    }
 }
