@@ -8,6 +8,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use penumbra_fiv::asset::AssetInputs;
 use penumbra_fiv::{Culling, FivParams, Lighting, Occluder, Shard, ShellLayout, Storage, UpAxis, bake_with};
 use penumbra_geometry::env::Rotation;
+use penumbra_geometry::packet::StreamScratch;
 use penumbra_geometry::{CubeMap, EnvMap, TriMesh};
 use penumbra_math::progress::NoProgress;
 use penumbra_runtime::fiv::{FivShader, FivTable, PlacedOccluder, ShadeOptions};
@@ -110,5 +111,83 @@ fn runtime(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bake, runtime);
+/// The bake's ray queries alone (issue 15 §4, second pass): the bounding-cone rays of a
+/// 32×17×15 layout around the occluder toward every texel of the 6×32×32 cube, bundled by
+/// texel (one direction, many origins), cast three ways with the same booleans (asserted):
+/// one by one through the CWBVH (`MeshBvh::any_hit_prepared`, what the bake does), as one
+/// stream per texel through `ParallelBvh::any_hits`, and one by one through its 4-wide tree.
+fn rays(c: &mut Criterion) {
+    let (name, mesh, env) = inputs();
+    let occ = Occluder::new(mesh).expect("valid mesh");
+    let light = Lighting::new(CubeMap::from_latlong(&env, 32));
+    let layout = ShellLayout { azimuth: 32, polar: 17, radial: 15, r_min: 1.0, r_max: 8.0, up: UpAxis::Y };
+    let f = occ.frame();
+    let samples: Vec<[f64; 3]> = (0..32)
+        .flat_map(|i| (0..17).flat_map(move |j| (0..15).map(move |k| (i, j, k))))
+        .map(|(i, j, k)| layout.position(&f, i, j, k))
+        .collect();
+    // per texel: the samples whose bounding cone admits it (the rays the bake considers)
+    let bundles: Vec<(usize, Vec<[f64; 3]>)> = (0..light.texel_count())
+        .map(|t| {
+            let d = light.direction(t);
+            let o: Vec<[f64; 3]> = samples
+                .iter()
+                .copied()
+                .filter(|p| {
+                    let to_c = [f.center[0] - p[0], f.center[1] - p[1], f.center[2] - p[2]];
+                    let rho = (to_c[0] * to_c[0] + to_c[1] * to_c[1] + to_c[2] * to_c[2]).sqrt();
+                    let cos = (to_c[0] * d[0] + to_c[1] * d[1] + to_c[2] * d[2]) / rho;
+                    rho <= f.radius || cos >= (1.0 - (f.radius / rho).powi(2)).max(0.0).sqrt()
+                })
+                .collect();
+            (t, o)
+        })
+        .collect();
+    let n_rays: usize = bundles.iter().map(|b| b.1.len()).sum();
+    let bvh = occ.bvh();
+    let par = bvh.parallel_bvh();
+    let cw = || {
+        let mut stack = bvh.traversal_stack();
+        let mut hits = 0usize;
+        for (t, o) in &bundles {
+            for p in o {
+                hits += bvh.any_hit_prepared(*p, light.prepared(*t), 0.0, f64::INFINITY, &mut stack) as usize;
+            }
+        }
+        hits
+    };
+    let stream = || {
+        let mut scratch = StreamScratch::default();
+        let mut out = Vec::new();
+        let mut hits = 0usize;
+        for (t, o) in &bundles {
+            out.clear();
+            out.resize(o.len(), false);
+            par.any_hits(o, light.prepared(*t), 0.0, f64::INFINITY, &mut out, &mut scratch);
+            hits += out.iter().filter(|h| **h).count();
+        }
+        hits
+    };
+    let wide = || {
+        let mut hits = 0usize;
+        for (t, o) in &bundles {
+            for p in o {
+                hits += par.any_hit(*p, light.prepared(*t), 0.0, f64::INFINITY) as usize;
+            }
+        }
+        hits
+    };
+    let want = cw();
+    assert_eq!(stream(), want, "stream traversal disagrees with the CWBVH");
+    assert_eq!(wide(), want, "4-wide traversal disagrees with the CWBVH");
+    eprintln!("fiv_rays/{name}: {n_rays} cone rays in {} bundles, {want} hits", bundles.len());
+    let mut g = c.benchmark_group(format!("fiv_rays/{name}"));
+    g.sample_size(10).measurement_time(Duration::from_secs(8)).warm_up_time(Duration::from_secs(1));
+    g.bench_function("cwbvh_one_by_one", |b| b.iter(cw));
+    g.bench_function("parallel_stream", |b| b.iter(stream));
+    g.bench_function("parallel_4wide_one_by_one", |b| b.iter(wide));
+    g.finish();
+}
+
+criterion_group!(benches, bake, runtime, rays);
 criterion_main!(benches);

@@ -185,25 +185,8 @@ impl MeshBvh {
         let extent = (max - min).max_element();
         // power of two: extent * scale in (512, 1024]
         let scale = if extent > 0.0 { 2f64.powi(10 - extent.log2().ceil() as i32) } else { 1.0 };
-        let to_f32_down = |x: f64| {
-            let f = x as f32;
-            if (f as f64) > x { f.next_down() } else { f }
-        };
-        let to_f32_up = |x: f64| {
-            let f = x as f32;
-            if (f as f64) < x { f.next_up() } else { f }
-        };
-        let boxes: Vec<PrimBox> = (0..n)
-            .map(|t| {
-                let c = mesh.triangle(t).map(DVec3::from);
-                let lo = (c[0].min(c[1]).min(c[2]) - center) * scale - DVec3::splat(PAD);
-                let hi = (c[0].max(c[1]).max(c[2]) - center) * scale + DVec3::splat(PAD);
-                PrimBox(obvhs::aabb::Aabb::new(
-                    Vec3A::new(to_f32_down(lo.x), to_f32_down(lo.y), to_f32_down(lo.z)),
-                    Vec3A::new(to_f32_up(hi.x), to_f32_up(hi.y), to_f32_up(hi.z)),
-                ))
-            })
-            .collect();
+        let boxes: Vec<PrimBox> =
+            (0..n).map(|t| PrimBox(prim_box(mesh.triangle(t).map(DVec3::from), center, scale))).collect();
         let cwbvh =
             obvhs::cwbvh::builder::build_cwbvh(&boxes, obvhs::BvhBuildParams::medium_build(), &mut Duration::default());
         let ids = cwbvh.primitive_indices.clone();
@@ -248,26 +231,32 @@ impl MeshBvh {
     /// Clips the ray to the padded mesh box in f64: the node-traversal start `t0` and end.
     #[inline]
     fn clip(&self, o: DVec3, pd: &PreparedDir, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
-        let d = pd.d;
-        let mut t0 = tmin;
-        let mut t1 = tmax;
-        for k in 0..3 {
-            if d[k] == 0.0 {
-                if o[k] < self.padded_min[k] || o[k] > self.padded_max[k] {
-                    return None;
-                }
-                continue;
-            }
-            let inv = pd.inv[k];
-            let (a, b) = {
-                let a = (self.padded_min[k] - o[k]) * inv;
-                let b = (self.padded_max[k] - o[k]) * inv;
-                if a <= b { (a, b) } else { (b, a) }
-            };
-            t0 = t0.max(a);
-            t1 = t1.min(b);
-        }
-        if t0 <= t1 && t0.is_finite() && t1.is_finite() { Some((t0, t1)) } else { None }
+        pd.clip(o, self.padded_min, self.padded_max, tmin, tmax)
+    }
+
+    /// The normalisation and padded box, for [`crate::packet::ParallelBvh`].
+    pub(crate) fn frame_parts(&self) -> (DVec3, f64, DVec3, DVec3) {
+        (self.center, self.scale, self.padded_min, self.padded_max)
+    }
+
+    /// Triangle corners in obvhs slot order.
+    pub(crate) fn triangles_slot_order(&self) -> &[[DVec3; 3]] {
+        &self.tris
+    }
+
+    /// The padded, outward-rounded f32 box of slot `i` in the normalised frame, exactly as
+    /// the CWBVH was built over.
+    pub(crate) fn slot_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
+        let c = self.tris[i];
+        let b = prim_box(c, self.center, self.scale);
+        (b.min.to_array(), b.max.to_array())
+    }
+
+    /// A binary BVH over the same triangles for bundles of parallel rays, whose answers are
+    /// [`MeshBvh::any_hit_prepared`]'s ([`crate::packet`]; measured slower on the FIV bake's
+    /// rays, see there).
+    pub fn parallel_bvh(&self) -> crate::packet::ParallelBvh {
+        crate::packet::ParallelBvh::build(self)
     }
 
     /// Runs the CWBVH traversal for the ray clipped to `[t0, t1]`, calling `prim(slot)` for
@@ -291,16 +280,9 @@ impl MeshBvh {
     where
         F: FnMut(usize) -> Step,
     {
-        let (d, len, dir) = (pd.d, pd.len, pd.dir32);
-        let start = (o + t0 * d - self.center) * self.scale;
-        let span = ((t1 - t0) * len * self.scale) as f32;
-        let mut ray = obvhs::ray::Ray {
-            origin: Vec3A::new(start.x as f32, start.y as f32, start.z as f32),
-            direction: dir,
-            inv_direction: pd.inv32,
-            tmin: 0.0,
-            tmax: span.next_up() * (1.0 + 1e-6) + PAD as f32,
-        };
+        let len = pd.len;
+        let (origin, tmax) = pd.node_start(o, t0, t1, self.center, self.scale);
+        let mut ray = obvhs::ray::Ray { origin, direction: pd.dir32, inv_direction: pd.inv32, tmin: 0.0, tmax };
         // node-space cut-off for a world-space hit parameter t
         let cut = |t: f64| ((t - t0) * len * self.scale) as f32 * (1.0 + 1e-6) + 1e-3;
         let mut state = TraversalState {
@@ -484,6 +466,71 @@ impl PreparedDir {
         let inv = DVec3::new(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
         Some(Self { d, inv, len, dir32, inv32: Vec3A::ONE / dir32, oct: octant_inv4(dir32), kernel })
     }
+}
+
+impl PreparedDir {
+    /// The f32 inverse of the normalised direction used by the node tests.
+    pub(crate) fn inv32(&self) -> Vec3A {
+        self.inv32
+    }
+
+    /// The watertight kernel's direction part.
+    pub(crate) fn kernel(&self) -> RayKernel {
+        self.kernel
+    }
+
+    /// Clips the ray `o + t·d`, `t ∈ [tmin, tmax]`, to the box `[lo, hi]` in f64: the
+    /// node-traversal start `t0` and end.
+    #[inline]
+    pub(crate) fn clip(&self, o: DVec3, lo: DVec3, hi: DVec3, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+        let d = self.d;
+        let mut t0 = tmin;
+        let mut t1 = tmax;
+        for k in 0..3 {
+            if d[k] == 0.0 {
+                if o[k] < lo[k] || o[k] > hi[k] {
+                    return None;
+                }
+                continue;
+            }
+            let inv = self.inv[k];
+            let (a, b) = {
+                let a = (lo[k] - o[k]) * inv;
+                let b = (hi[k] - o[k]) * inv;
+                if a <= b { (a, b) } else { (b, a) }
+            };
+            t0 = t0.max(a);
+            t1 = t1.min(b);
+        }
+        if t0 <= t1 && t0.is_finite() && t1.is_finite() { Some((t0, t1)) } else { None }
+    }
+
+    /// The node-space (normalised frame, unit f32 direction) start point of the clipped ray
+    /// `[t0, t1]` and the node-space range end that the node tests accept (padded).
+    #[inline]
+    pub(crate) fn node_start(&self, o: DVec3, t0: f64, t1: f64, center: DVec3, scale: f64) -> (Vec3A, f32) {
+        let start = (o + t0 * self.d - center) * scale;
+        let span = ((t1 - t0) * self.len * scale) as f32;
+        (Vec3A::new(start.x as f32, start.y as f32, start.z as f32), span.next_up() * (1.0 + 1e-6) + PAD as f32)
+    }
+}
+
+/// The padded (by [`PAD`]) f32 box of a triangle in the normalised frame, rounded outwards.
+fn prim_box(c: [DVec3; 3], center: DVec3, scale: f64) -> obvhs::aabb::Aabb {
+    let to_f32_down = |x: f64| {
+        let f = x as f32;
+        if (f as f64) > x { f.next_down() } else { f }
+    };
+    let to_f32_up = |x: f64| {
+        let f = x as f32;
+        if (f as f64) < x { f.next_up() } else { f }
+    };
+    let lo = (c[0].min(c[1]).min(c[2]) - center) * scale - DVec3::splat(PAD);
+    let hi = (c[0].max(c[1]).max(c[2]) - center) * scale + DVec3::splat(PAD);
+    obvhs::aabb::Aabb::new(
+        Vec3A::new(to_f32_down(lo.x), to_f32_down(lo.y), to_f32_down(lo.z)),
+        Vec3A::new(to_f32_up(hi.x), to_f32_up(hi.y), to_f32_up(hi.z)),
+    )
 }
 
 /// Scratch stack for [`MeshBvh::any_hit_prepared`].

@@ -285,3 +285,77 @@ fn parallel_build_thread_count_independent() {
         assert_eq!(a.any_hit(&r), b.any_hit(&r));
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// The parallel-ray BVH (stream and 4-wide single rays) gives the CWBVH's and brute
+    /// force's any-hit booleans for bundles of rays sharing one direction.
+    #[test]
+    fn parallel_bvh_matches_cwbvh_and_brute_force(
+        mesh in soup(),
+        dir in prop::array::uniform3(-1.0f64..1.0),
+        zero in 0u8..4,
+        origins in prop::collection::vec(prop::array::uniform3(-2.0f64..2.0), 1..200),
+        tmin in 0.0f64..0.5,
+        tmax in prop_oneof![Just(f64::INFINITY), 0.5f64..4.0],
+    ) {
+        let mut d = dir;
+        if zero < 3 {
+            d[zero as usize] = 0.0;
+        }
+        prop_assume!(DVec3::from(d).length() > 1e-3);
+        let bvh = MeshBvh::build(&mesh).unwrap();
+        let par = bvh.parallel_bvh();
+        let pd = crate::bvh::PreparedDir::new(d).unwrap();
+        let mut stack = bvh.traversal_stack();
+        let mut out = vec![false; origins.len()];
+        par.any_hits(&origins, &pd, tmin, tmax, &mut out, &mut crate::packet::StreamScratch::default());
+        for (o, &h) in origins.iter().zip(&out) {
+            let want = bvh.any_hit_prepared(*o, &pd, tmin, tmax, &mut stack);
+            prop_assert_eq!(want, any_hit_brute_force(&mesh, &Ray::new(*o, d).with_range(tmin, tmax)));
+            prop_assert_eq!(h, want);
+            prop_assert_eq!(par.any_hit(*o, &pd, tmin, tmax), want);
+        }
+    }
+}
+
+#[test]
+fn parallel_bvh_on_closed_meshes_and_shared_edges() {
+    // a closed sphere (rays from outside through it hit, from inside always hit) and the
+    // grid's shared edges and vertices (watertight: never a leak between two triangles)
+    for mesh in [icosphere(4, 1.0, [0.1, -0.2, 0.3]), grid(8)] {
+        let bvh = MeshBvh::build(&mesh).unwrap();
+        let par = bvh.parallel_bvh();
+        assert!(par.node_count() > 0);
+        let mut scratch = crate::packet::StreamScratch::default();
+        let mut stack = bvh.traversal_stack();
+        let mut n_hit = 0;
+        for d in [[0.0, 0.0, -1.0], [0.3, -0.2, -1.0], [1.0, 0.0, 0.0], [-0.7, 0.7, 0.1]] {
+            let pd = crate::bvh::PreparedDir::new(d).unwrap();
+            // a lattice of origins on grid vertices and edge midpoints, shifted back along d
+            let origins: Vec<[f64; 3]> = (0..33 * 33)
+                .map(|i| {
+                    let (x, y) = ((i % 33) as f64 / 32.0, (i / 33) as f64 / 32.0);
+                    [2.0 * x - 1.0 - 3.0 * d[0], 2.0 * y - 1.0 - 3.0 * d[1], 0.0 - 3.0 * d[2]]
+                })
+                .collect();
+            let mut out = vec![false; origins.len()];
+            par.any_hits(&origins, &pd, 0.0, f64::INFINITY, &mut out, &mut scratch);
+            for (o, &h) in origins.iter().zip(&out) {
+                let want = bvh.any_hit_prepared(*o, &pd, 0.0, f64::INFINITY, &mut stack);
+                assert_eq!(h, want, "origin {o:?} dir {d:?}");
+                assert_eq!(par.any_hit(*o, &pd, 0.0, f64::INFINITY), want);
+                n_hit += h as usize;
+            }
+        }
+        // the test is not vacuous: many lattice rays hit
+        assert!(n_hit > 500, "{n_hit}");
+    }
+    // an empty mesh never hits
+    let empty = MeshBvh::build(&TriMesh::default()).unwrap().parallel_bvh();
+    let pd = crate::bvh::PreparedDir::new([0.0, 0.0, 1.0]).unwrap();
+    let mut out = [true];
+    empty.any_hits(&[[0.0; 3]], &pd, 0.0, f64::INFINITY, &mut out, &mut crate::packet::StreamScratch::default());
+    assert!(!out[0] && !empty.any_hit([0.0; 3], &pd, 0.0, f64::INFINITY));
+}

@@ -53,6 +53,7 @@ pub mod import;
 pub mod inside;
 mod kernels;
 pub mod mesh;
+pub mod packet;
 pub mod procedural;
 pub mod scene;
 #[cfg(test)]
@@ -66,5 +67,6 @@ pub use error::{EnvError, EnvErrorKind, EnvMapError, MeshError, MeshErrorKind, M
 pub use import::{ImportReport, load_mesh};
 pub use inside::WindingNumber;
 pub use mesh::{Aabb, TriMesh};
+pub use packet::ParallelBvh;
 pub use scene::Scene;
 pub use voxel::{GridSpec, InsideOracle, SignedDistanceGrid, triangle_box_overlap};
