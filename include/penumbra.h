@@ -73,6 +73,21 @@
 #define PN_FIV_PARTIAL_SCALE 1
 
 /*
+ Point sampled (IBPA eq. 13).
+ */
+#define PN_INDIRECT_POINT 0
+
+/*
+ Averaged `D(θ)` (IBPA eq. 14–15), what [`crate::pn_shadow_shade_with_indirect`] uses.
+ */
+#define PN_INDIRECT_AVERAGED 1
+
+/*
+ Exact `M(θ)` (IBPA eq. 16–17; contributes nothing if the tables lack `indirect_m`).
+ */
+#define PN_INDIRECT_EXACT 2
+
+/*
  Zonal table `cap_log` (starred ZH of a blocker cap's log visibility), argument θ in radians.
  */
 #define PN_TABLE_CAP_LOG 0
@@ -136,6 +151,13 @@ typedef struct pn_fiv_table pn_fiv_table;
 typedef struct pn_mrt pn_mrt;
 
 /*
+ A sphere set moved to one pose (leaves and refitted internal nodes). It borrows its
+ `pn_spheres`, which must outlive it. Scratch state: posing and querying from one thread at
+ a time (make one per character instance).
+ */
+typedef struct pn_posed_spheres pn_posed_spheres;
+
+/*
  A shadow evaluator for one lighting environment (immutable; shareable between threads).
  */
 typedef struct pn_shadow pn_shadow;
@@ -163,6 +185,34 @@ typedef struct pn_fiv_placed {
    */
   float center[3];
 } pn_fiv_placed;
+
+/*
+ A blocker sphere: centre and radius (the runtime's `Sphere`, same layout).
+ */
+typedef struct pn_sphere {
+  /*
+   Centre.
+   */
+  float center[3];
+  /*
+   Radius (> 0).
+   */
+  float radius;
+} pn_sphere;
+
+/*
+ A spherical light at a finite distance: emitting sphere and RGB radiance.
+ */
+typedef struct pn_local_light {
+  /*
+   Centre and radius of the emitting sphere.
+   */
+  struct pn_sphere sphere;
+  /*
+   Emitted radiance, RGB.
+   */
+  float radiance[3];
+} pn_local_light;
 
 /*
  The matrices of dictionary shape `shape` for engines that evaluate on the GPU: `n` texels,
@@ -210,20 +260,6 @@ typedef struct pn_shadow_options {
    */
   bool window;
 } pn_shadow_options;
-
-/*
- A blocker sphere: centre and radius (the runtime's `Sphere`, same layout).
- */
-typedef struct pn_sphere {
-  /*
-   Centre.
-   */
-  float center[3];
-  /*
-   Radius (> 0).
-   */
-  float radius;
-} pn_sphere;
 
 #ifdef __cplusplus
 extern "C" {
@@ -440,6 +476,70 @@ int32_t pn_fiv_scene_self_shadowed(struct pn_fiv_scene *s,
 int32_t pn_fiv_yaw_blend(size_t steps, float yaw, size_t *m0, size_t *m1, float *f);
 
 /*
+ Shadowed irradiance at `(p, n)` from a local spherical light, blocked by `count` spheres
+ (SHEXP §7; schemas/asset-format.md §15.1, SHTB `local_light_zh`): RGB into `out`.
+ `PN_ERR_ABSENT` when the tables have no `local_light_zh` section or the light is not a
+ valid sphere (non-finite, radius ≤ 0, or centred on the receiver).
+
+ # Safety
+ `p`, `n`, `out` point to 3 floats; `sph` to `count` spheres; `light` is valid.
+ */
+int32_t pn_shadow_irradiance_local_light(const struct pn_shadow *s,
+                                         const float *p,
+                                         const float *n,
+                                         const struct pn_sphere *sph,
+                                         size_t count,
+                                         const struct pn_local_light *light,
+                                         float *out);
+
+/*
+ The local light's irradiance for a visibility `g` already computed (`g_len ≥ order²`
+ floats, e.g. from `pn_shadow_accumulate_log` + `pn_shadow_exponentiate`): one visibility,
+ several lights. Errors as [`pn_shadow_irradiance_local_light`].
+
+ # Safety
+ `p`, `n`, `out` point to 3 floats; `g` to `g_len` floats; `light` is valid.
+ */
+int32_t pn_shadow_shade_local_light(const struct pn_shadow *s,
+                                    const float *p,
+                                    const float *n,
+                                    const struct pn_local_light *light,
+                                    const float *g,
+                                    size_t g_len,
+                                    float *out);
+
+/*
+ Direct (shadowed) irradiance and indirect light from `count` proxies by operator `op`
+ (`PN_INDIRECT_*`): RGB into `direct` and `indirect`. `albedo` holds `albedo_count` RGB
+ triples: 1 (every proxy that albedo) or `count` (proxy `i` takes triple `i`, e.g. the SPHR
+ `albedo` rows from [`pn_spheres_albedo`]); other counts give `PN_ERR_SIZE`, an unknown `op`
+ `PN_ERR_RANGE`.
+
+ # Safety
+ `p`, `n`, `direct`, `indirect` point to 3 floats; `sph` to `count` spheres; `albedo` to
+ `3 × albedo_count` floats.
+ */
+int32_t pn_shadow_shade_with_indirect_by(const struct pn_shadow *s,
+                                         const float *p,
+                                         const float *n,
+                                         const struct pn_sphere *sph,
+                                         size_t count,
+                                         const float *albedo,
+                                         size_t albedo_count,
+                                         uint32_t op,
+                                         float *direct,
+                                         float *indirect);
+
+/*
+ Linear RGB albedo of leaf `index` (SPHR kind_version 2 `albedo`) into `out`;
+ `PN_ERR_ABSENT` when the set stores none, `PN_ERR_RANGE` for an index out of range.
+
+ # Safety
+ `set` is a live handle; `out` points to 3 writable floats.
+ */
+int32_t pn_spheres_albedo(const struct pn_spheres *set, size_t index, float *out);
+
+/*
  Opens a level and its dictionary over the caller's bytes (both kept alive until
  [`pn_mrt_free`]); refuses a level baked for another dictionary.
 
@@ -563,6 +663,74 @@ size_t pn_mrt_block_shape(const struct pn_mrt *m, size_t block);
  `m` live; `out` writable.
  */
 int32_t pn_mrt_shape_info(const struct pn_mrt *m, size_t shape, struct pn_mrt_shape *out);
+
+/*
+ Makes a posed set in the rest pose of `set` (the stored leaves and nodes).
+
+ # Safety
+ `set` is a live handle; `out` is a writable pointer slot.
+ */
+int32_t pn_posed_spheres_new(const struct pn_spheres *set, struct pn_posed_spheres **out);
+
+/*
+ Frees a posed set (NULL is a no-op).
+
+ # Safety
+ `p` is NULL or a live handle, not used afterwards.
+ */
+void pn_posed_spheres_free(struct pn_posed_spheres *p);
+
+/*
+ Poses every leaf from its skin influences, `P' = Σᵦ wᵦ Mₙᵦ P` (radius kept), with
+ `node_count` matrices `Mₙ = Gₙ(t)·Gₙ(rest)⁻¹` (16 floats each, column-major as glTF; the
+ last row is ignored) indexed by glTF node, then refits the hierarchy bottom-up (pair
+ bounds, schemas/asset-format.md SPHR). Errors leave the pose unchanged: `PN_ERR_ABSENT`
+ when the set has no skin, `PN_ERR_RANGE` when a leaf names a node at or beyond
+ `node_count` or a matrix holds a non-finite value. No allocation after the first call.
+
+ # Safety
+ `p` is a live handle; `matrices` points to `16 × node_count` floats.
+ */
+int32_t pn_posed_spheres_pose(struct pn_posed_spheres *p, const float *matrices, size_t node_count);
+
+/*
+ Moves the leaves to `count` spheres the engine computed itself (one per stored leaf) and
+ refits the hierarchy. `PN_ERR_SIZE` unless `count` is the set's leaf count.
+
+ # Safety
+ `p` is a live handle; `leaves` points to `count` spheres.
+ */
+int32_t pn_posed_spheres_set_leaves(struct pn_posed_spheres *p,
+                                    const struct pn_sphere *leaves,
+                                    size_t count);
+
+/*
+ Copies the posed leaves (`count` = the set's leaf count, else `PN_ERR_SIZE`) into `out`:
+ the blockers to hand to `pn_shadow_irradiance` & co.
+
+ # Safety
+ `p` is a live handle; `out` points to `count` writable spheres.
+ */
+int32_t pn_posed_spheres_leaves(const struct pn_posed_spheres *p,
+                                struct pn_sphere *out,
+                                size_t count);
+
+/*
+ [`crate::pn_cluster_cut`] on the posed tree: the cut of the cluster bounded by
+ `(p_r, r_r)` with the refitted nodes, and its blockers with ratio vectors at
+ `(p_star, n_star)`.
+
+ # Safety
+ Handles live; vectors point to 3 floats.
+ */
+int32_t pn_cluster_cut_posed(struct pn_cluster *c,
+                             const struct pn_shadow *s,
+                             const struct pn_posed_spheres *posed,
+                             const float *p_r,
+                             float r_r,
+                             float sin_theta_max,
+                             const float *p_star,
+                             const float *n_star);
 
 /*
  Opens an `SHTB` asset over the caller's bytes (kept alive until [`pn_tables_free`]).
@@ -754,8 +922,9 @@ int32_t pn_shadow_irradiance_accumulated_by(const struct pn_shadow *s,
                                             float *out);
 
 /*
- Direct (shadowed) irradiance and indirect light from the proxies (IBPA §5) for a receiver
- of RGB `albedo`: RGB into `direct` and `indirect`.
+ Direct (shadowed) irradiance and indirect light from the proxies (IBPA §5), every proxy a
+ diffuse reflector of RGB `albedo`, averaged operator: RGB into `direct` and `indirect`
+ (per-sphere albedo and the other operators: [`pn_shadow_shade_with_indirect_by`]).
 
  # Safety
  `p`, `n`, `albedo`, `direct`, `indirect` point to 3 floats; `sph` to `count` spheres.
@@ -816,7 +985,7 @@ int32_t pn_spheres_leaf(const struct pn_spheres *s, size_t index, struct pn_sphe
 /*
  Skinning influences of leaf `index` (glTF node indices, `0xFFFFFFFF` unused, and weights;
  4 each). `PN_ERR_ABSENT` when the set has no skin. Posing (`P' = Σ w G(t) G(rest)⁻¹ P`,
- schemas/asset-format.md, SPHR) needs the engine's node transforms and is the engine's.
+ schemas/asset-format.md, SPHR) from the engine's node matrices: [`pn_posed_spheres_pose`].
 
  # Safety
  `s` is a live handle; `nodes` and `weights` point to 4 values each.

@@ -40,6 +40,24 @@ fn corpus_v1_still_loads() {
                 a.require_known(penumbra_spheres::asset::SPHR_SECTIONS).unwrap();
                 let set = penumbra_spheres::asset::read(&a).unwrap();
                 assert_eq!(set.spheres.len() as u64, meta["metrics"]["count"].as_u64().unwrap());
+                // kind_version 1 has no albedo; 2 may (the runtime view agrees with the baker's)
+                let rt = penumbra_runtime::SphereSet::from_asset(&a).unwrap();
+                let kv = meta["kind_version"].as_u64().unwrap();
+                assert!(kv == 1 || kv == 2, "SPHR kind_version {kv}");
+                assert_eq!(rt.has_albedo(), set.albedo.is_some());
+                if kv == 1 {
+                    assert!(set.albedo.is_none());
+                }
+                if let Some(al) = &set.albedo {
+                    let mean = meta["metrics"]["albedo_mean"].as_array().unwrap();
+                    for c in 0..3 {
+                        let m = al.iter().map(|x| f64::from(x[c])).sum::<f64>() / al.len() as f64;
+                        assert!((m - mean[c].as_f64().unwrap()).abs() < 1e-6);
+                    }
+                    for (i, x) in al.iter().enumerate() {
+                        assert_eq!(rt.albedo(i), Some(*x));
+                    }
+                }
                 // every stored parent bounds its stored children (f64 test on f32 values)
                 if let Some(h) = &set.hierarchy {
                     for (l, level) in h.levels.iter().enumerate() {

@@ -113,3 +113,56 @@ fn exact_operator_beats_averaged_beats_point_sampled() {
     assert!(rel[2] < rel[1] && rel[1] < rel[0], "{rel:?}");
     assert!(rel[2] < 0.02, "exact operator {rel:?}");
 }
+
+#[test]
+fn per_sphere_albedo_scales_each_proxy_and_matches_quadrature() {
+    // Two proxies with different albedos, disjoint caps: the runtime's indirect light is linear
+    // in each proxy's albedo (the overlap factor ξ does not depend on it), equals the uniform
+    // path when the albedos agree, and matches the sum of the two spheres' f64 quadratures
+    // with their own albedos (exact operator, 3 %: its own error plus ξ ≈ 1).
+    let order = 4;
+    let bytes = to_asset(&bake(&TablesParams::new(order), &NoProgress).unwrap(), None).unwrap().to_bytes().unwrap();
+    let owned = OwnedAsset::parse(&bytes).unwrap();
+    let t = ShTables::from_asset(&owned.asset()).unwrap();
+    let l32: Vec<[f32; 3]> = light().iter().map(|c| c.map(|x| x as f32)).collect();
+    let ev = ShadowEvaluator::new(&t, &l32, ShadowOptions { window: false, ..Default::default() });
+    let (p, n) = ([0.0f32, 0.0, 0.0], [0.0f32, 0.0, 1.0]);
+    let (ca, ra, cb, rb) = ([1.2, 0.0, 1.5], 0.5, [-1.0, 0.4, 1.8], 0.6);
+    let s = [
+        Sphere { center: ca.map(|x: f64| x as f32), radius: ra as f32 },
+        Sphere { center: cb.map(|x: f64| x as f32), radius: rb as f32 },
+    ];
+    let (rho_a, rho_b) = (0.9f32, 0.2f32);
+    for op in [IndirectOperator::PointSampled, IndirectOperator::Averaged, IndirectOperator::Exact] {
+        let f = |al: &[[f32; 3]]| ev.shade_with_indirect_per_sphere(p, n, &s, al, op).indirect;
+        let both = f(&[[rho_a; 3], [rho_b; 3]]);
+        let only_a = f(&[[1.0; 3], [0.0; 3]]);
+        let only_b = f(&[[0.0; 3], [1.0; 3]]);
+        let uniform = ev.shade_with_indirect_by(p, n, &s, [rho_a; 3], op).indirect;
+        let same = f(&[[rho_a; 3], [rho_a; 3]]);
+        for c in 0..3 {
+            let lin = rho_a * only_a[c] + rho_b * only_b[c];
+            assert!((both[c] - lin).abs() <= 1e-5 * lin.abs().max(1e-3), "{op:?}: {both:?} vs {lin}");
+            assert!((same[c] - uniform[c]).abs() <= 1e-6 * uniform[c].abs(), "{op:?}: {same:?} vs {uniform:?}");
+            // the two albedos give different weights: not the uniform answer
+            assert!((both[c] - uniform[c]).abs() > 0.05 * uniform[c].abs(), "{op:?}");
+        }
+        // a missing entry reflects nothing
+        let short = f(&[[rho_a; 3]]);
+        for c in 0..3 {
+            assert!((short[c] - rho_a * only_a[c]).abs() <= 1e-5 * short[c].abs().max(1e-3));
+        }
+        if op == IndirectOperator::Exact {
+            let pa = [0.0f64; 3];
+            let truth: [f64; 3] = {
+                let a = quadrature(pa, [0.0, 0.0, 1.0], ca, ra, f64::from(rho_a));
+                let b = quadrature(pa, [0.0, 0.0, 1.0], cb, rb, f64::from(rho_b));
+                std::array::from_fn(|c| a[c] + b[c])
+            };
+            for c in 0..3 {
+                let got = f64::from(both[c]);
+                assert!((got - truth[c]).abs() < 0.03 * truth[c], "exact, c={c}: {got} vs quadrature {}", truth[c]);
+            }
+        }
+    }
+}

@@ -162,8 +162,10 @@ fn proxy_log_is_accurate_from_far_field_to_contact() {
         let mut worst = [0.0f64; 3];
         let mut at = [0.0f64; 3];
         let mut row = vec![0.0f32; order];
-        for k in 1..=2000 {
-            let alpha = k as f64 / 2000.0;
+        // 2000 even samples plus 600 across the order-8 bend (α 0.40–0.43, where the log's
+        // eigenvalue clipping engages)
+        let samples = (1..=2000).map(|k| k as f64 / 2000.0).chain((0..600).map(|k| 0.40 + 0.03 * k as f64 / 600.0));
+        for alpha in samples {
             let alpha = if alpha >= 1.0 { 0.99999 } else { alpha };
             let th = alpha.asin();
             let want: Vec<f64> = penumbra_sh::log::log_eigen_zonal_occlusion(
@@ -191,11 +193,12 @@ fn proxy_log_is_accurate_from_far_field_to_contact() {
             }
         }
         eprintln!("order {order}: worst rel error below clamp / table / near contact: {worst:?} at α = {at:?}");
-        // below the clamp and near contact: ≤ 0.5 % at every order; inside the uniform-α table
-        // the linear interpolation at K = 256 is ≤ 0.5 % at order 4 and 0.84 % at order 8
-        // (α ≈ 0.42, where the order-8 row bends most), recorded in docs/tables.md
-        assert!(worst[0] <= 0.005 && worst[2] <= 0.005, "order {order}: {worst:?}");
-        assert!(worst[1] <= if order <= 4 { 0.005 } else { 0.01 }, "order {order}: {worst:?}");
+        // ≤ 0.5 % below the clamp and near contact at every order, and in the uniform-α table
+        // at order 4 (linear). At order 8 the table is read by Catmull–Rom: 0.56 % at
+        // α ≈ 0.415, where the log's eigenvalue clipping engages (a kink inside one cell; linear
+        // was 0.78–0.84 % there, 0.60 % at α ≈ 0.0255); recorded in docs/tables.md
+        assert!(worst[0] <= 0.005 && worst[2] <= 0.005, "order {order}: {worst:?} at α = {at:?}");
+        assert!(worst[1] <= if order <= 4 { 0.005 } else { 0.0057 }, "order {order}: {worst:?} at α = {at:?}");
     }
 }
 

@@ -225,3 +225,89 @@ fn verify_local_light_and_indirect_report_their_keys() {
     assert_eq!(code, 2);
     assert!(err.contains("--albedo"), "{err}");
 }
+
+/// Two boxes of known material albedo as GLB (issue #14 §2, IBPA §5 per-proxy albedo).
+fn two_material_glb(dir: &Path, a: [f32; 4], b: [f32; 4]) -> PathBuf {
+    use penumbra_testkit::gltf::{Part, cuboid, glb};
+    let x = cuboid([-1.2, 0.0, -0.5], [-0.2, 1.0, 0.5]);
+    let y = cuboid([0.2, 0.0, -0.5], [1.2, 1.0, 0.5]);
+    let bytes = glb(&[
+        Part { positions: &x.0, triangles: &x.1, base_color: Some(a) },
+        Part { positions: &y.0, triangles: &y.1, base_color: Some(b) },
+    ]);
+    let p = dir.join(format!("boxes-{}-{}.glb", a[0], b[0]));
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+#[test]
+fn spheres_store_material_albedo_and_verify_indirect_uses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().join("t3.shtb");
+    let (code, _, e) = run(penumbra().args(["tables", "--order", "3", "--theta-samples", "64", "-o"]).arg(&t));
+    assert_eq!(code, 0, "{e}");
+    let bake = |mesh: &Path, name: &str, extra: &[&str]| -> (PathBuf, Value) {
+        let s = dir.path().join(name);
+        let (code, out, e) = run(penumbra()
+            .arg("spheres")
+            .arg(mesh)
+            .args(["--count", "4", "--grid", "16", "--iterations", "6", "--json", "-o"])
+            .arg(&s)
+            .args(extra));
+        assert_eq!(code, 0, "{e}");
+        (s, serde_json::from_str(&out).unwrap())
+    };
+    let ver = |s: &Path, mesh: &Path, extra: &[&str]| -> Value {
+        let mut c = penumbra();
+        c.args(["verify", "shadows", "--tables"]).arg(&t).arg("--spheres").arg(s).arg("--mesh").arg(mesh);
+        c.args(["--env", "builtin:area-lights", "--resolution", "12", "--rays", "8", "--json", "--indirect"]);
+        let (code, out, err) = run(c.args(extra));
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str(&out).unwrap()
+    };
+    // two materials: the stored albedos are the two factors (one box per sphere pair)
+    let red = [0.9f32, 0.2, 0.1, 1.0];
+    let grey = [0.4f32, 0.4, 0.4, 1.0];
+    let two = two_material_glb(dir.path(), red, grey);
+    let (s2, j) = bake(&two, "two.sphr", &[]);
+    assert_eq!(j["albedo_from_materials"], true, "{j}");
+    let f = penumbra_asset::AssetFile::open(&s2).unwrap();
+    let set = penumbra_spheres::asset::read(&f.asset()).unwrap();
+    assert!(f.asset().meta_json().contains("\"kind_version\":2"));
+    for (sp, al) in set.spheres.iter().zip(set.albedo.as_ref().unwrap()) {
+        let want = if sp[0] < 0.0 { red } else { grey };
+        assert!((0..3).all(|k| (al[k] - want[k]).abs() < 1e-6), "{sp:?}: {al:?}");
+    }
+    let v = ver(&s2, &two, &[]);
+    assert_eq!(v["albedo_source"], "sphr", "{v}");
+    assert!((v["albedo_max"][0].as_f64().unwrap() - 0.9).abs() < 1e-6, "{v}");
+    assert!((v["albedo_min"][2].as_f64().unwrap() - 0.1).abs() < 1e-6, "{v}");
+    // one grey material of 0.4 against the same set with --albedo 0.8: the reference and every
+    // operator's result halve (same seeds), so the NRMSEs agree
+    let (s1, _) = bake(&two_material_glb(dir.path(), grey, grey), "grey.sphr", &[]);
+    let g = two_material_glb(dir.path(), grey, grey);
+    let stored = ver(&s1, &g, &[]);
+    let flag = ver(&s1, &g, &["--albedo", "0.8"]);
+    assert_eq!(flag["albedo_source"], "flag");
+    let (ms, mf) =
+        (stored["indirect_reference_mean"].as_f64().unwrap(), flag["indirect_reference_mean"].as_f64().unwrap());
+    assert!(ms > 0.0 && (ms / mf - 0.5).abs() < 1e-7, "stored {ms} vs --albedo 0.8 {mf}");
+    for op in ["point", "d", "m"] {
+        let (a, b) = (stored["nrmse_indirect"][op].as_f64().unwrap(), flag["nrmse_indirect"][op].as_f64().unwrap());
+        assert!((a - b).abs() < 1e-6 * b.max(1e-9), "{op}: {a} vs {b}");
+    }
+    // an OBJ without --albedo stores none (and verify falls back to 0.8); with it, every sphere
+    let (s3, j3) = bake(&character(), "c.sphr", &[]);
+    assert!(j3["albedo_mean"].is_null(), "{j3}");
+    assert_eq!(ver(&s3, &character(), &[])["albedo_source"], "default");
+    let (s4, j4) = bake(&character(), "c2.sphr", &["--albedo", "0.3,0.5,0.7"]);
+    assert_eq!(j4["albedo_mean"], serde_json::json!([0.30000001192092896, 0.5, 0.699999988079071]), "{j4}");
+    let f = penumbra_asset::AssetFile::open(&s4).unwrap();
+    assert_eq!(penumbra_spheres::asset::read(&f.asset()).unwrap().albedo.unwrap().len(), 4);
+    // bad --albedo: exit 2 naming the flag, nothing written
+    let bad = dir.path().join("bad.sphr");
+    let (code, _, e) =
+        run(penumbra().arg("spheres").arg(character()).args(["--count", "2", "--albedo", "2", "-o"]).arg(&bad));
+    assert_eq!(code, 2);
+    assert!(e.contains("--albedo") && !bad.exists(), "{e}");
+}

@@ -17,19 +17,24 @@
 //!   evaluation calls only use memory sized at setup (`pn_cluster_cut` grows its buffers the
 //!   first times a larger cut appears, then reuses them).
 //! - **Threads**: `pn_tables`, `pn_spheres`, `pn_fiv_table` and `pn_shadow` are immutable after
-//!   setup: any number of threads may query one at once. `pn_cluster`, `pn_fiv_scene` and
-//!   `pn_mrt`, `pn_drt` hold scratch state: one thread at a time per handle (make one per thread).
+//!   setup: any number of threads may query one at once. `pn_cluster`, `pn_posed_spheres`,
+//!   `pn_fiv_scene` and `pn_mrt`, `pn_drt` hold scratch state: one thread at a time per handle
+//!   (make one per thread).
 #![allow(unsafe_code)] // a C ABI dereferences caller pointers; each unsafe block states why it is sound
 #![allow(non_camel_case_types)] // the handle types are named as C sees them
 
 mod drt;
 mod fiv;
+mod lighting;
 mod mrt;
+mod pose;
 mod shadows;
 
 pub use drt::*;
 pub use fiv::*;
+pub use lighting::*;
 pub use mrt::*;
+pub use pose::*;
 pub use shadows::*;
 
 use core::ffi::c_char;

@@ -21,7 +21,7 @@ pub struct pn_sphere {
 // The sphere arrays of the C caller are handed to the runtime in place.
 const _: () = assert!(size_of::<pn_sphere>() == size_of::<Sphere>() && align_of::<pn_sphere>() == align_of::<Sphere>());
 
-fn spheres<'a>(p: *const pn_sphere, n: usize) -> Option<&'a [Sphere]> {
+pub(crate) fn spheres<'a>(p: *const pn_sphere, n: usize) -> Option<&'a [Sphere]> {
     let s = slice(p, n)?;
     // SAFETY: pn_sphere and Sphere are both repr(C) { [f32; 3], f32 } (asserted above).
     Some(unsafe { core::slice::from_raw_parts(s.as_ptr().cast::<Sphere>(), s.len()) })
@@ -180,8 +180,8 @@ pub struct pn_shadow_options {
 /// A shadow evaluator for one lighting environment (immutable; shareable between threads).
 #[derive(Debug)]
 pub struct pn_shadow {
-    ev: ShadowEvaluator<'static>,
-    n2: usize,
+    pub(crate) ev: ShadowEvaluator<'static>,
+    pub(crate) n2: usize,
 }
 
 /// Makes an evaluator: `light` holds the environment radiance's RGB SH coefficients at the
@@ -418,8 +418,9 @@ pub unsafe extern "C" fn pn_shadow_irradiance_accumulated_by(
     })
 }
 
-/// Direct (shadowed) irradiance and indirect light from the proxies (IBPA §5) for a receiver
-/// of RGB `albedo`: RGB into `direct` and `indirect`.
+/// Direct (shadowed) irradiance and indirect light from the proxies (IBPA §5), every proxy a
+/// diffuse reflector of RGB `albedo`, averaged operator: RGB into `direct` and `indirect`
+/// (per-sphere albedo and the other operators: [`pn_shadow_shade_with_indirect_by`]).
 ///
 /// # Safety
 /// `p`, `n`, `albedo`, `direct`, `indirect` point to 3 floats; `sph` to `count` spheres.
@@ -451,7 +452,7 @@ pub unsafe extern "C" fn pn_shadow_shade_with_indirect(
 /// An `SPHR` sphere set (immutable; shareable between threads).
 #[derive(Debug)]
 pub struct pn_spheres {
-    set: SphereSet<'static>,
+    pub(crate) set: SphereSet<'static>,
 }
 
 /// Opens an `SPHR` asset over the caller's bytes.
@@ -523,7 +524,7 @@ pub unsafe extern "C" fn pn_spheres_leaf(s: *const pn_spheres, index: usize, out
 
 /// Skinning influences of leaf `index` (glTF node indices, `0xFFFFFFFF` unused, and weights;
 /// 4 each). `PN_ERR_ABSENT` when the set has no skin. Posing (`P' = Σ w G(t) G(rest)⁻¹ P`,
-/// schemas/asset-format.md, SPHR) needs the engine's node transforms and is the engine's.
+/// schemas/asset-format.md, SPHR) from the engine's node matrices: [`pn_posed_spheres_pose`].
 ///
 /// # Safety
 /// `s` is a live handle; `nodes` and `weights` point to 4 values each.
@@ -556,9 +557,9 @@ pub unsafe extern "C" fn pn_spheres_skin(
 /// Scratch state: one thread at a time.
 #[derive(Debug, Default)]
 pub struct pn_cluster {
-    stack: Vec<NodeRef>,
-    cut: Vec<NodeRef>,
-    blockers: Vec<CutBlocker>,
+    pub(crate) stack: Vec<NodeRef>,
+    pub(crate) cut: Vec<NodeRef>,
+    pub(crate) blockers: Vec<CutBlocker>,
 }
 
 /// Makes an empty cluster.

@@ -225,6 +225,11 @@ pub struct SpheresFitArgs {
     /// (32 sampled times per animation; issue #14).
     #[arg(long, requires = "skin")]
     pub skin_padding: bool,
+    /// Albedo of the proxies (IBPA §5), `R,G,B` or one value in [0, 1], for triangles without
+    /// a glTF material (all of an OBJ). Per-sphere albedo is stored (SPHR `albedo`) when this
+    /// is given or the glTF has materials (their baseColorFactor).
+    #[arg(long, value_name = "R,G,B")]
+    pub albedo: Option<String>,
     /// Fit only the glTF node(s) with this name.
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,

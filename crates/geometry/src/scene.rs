@@ -187,6 +187,10 @@ pub struct Scene {
     /// glTF `TEXCOORD_1` (lightmap UVs) per vertex of `mesh`; empty unless every triangle
     /// primitive has it (and for OBJ).
     pub uv1: Vec<[f64; 2]>,
+    /// glTF material `baseColorFactor` (linear RGBA, as stored) of each vertex's primitive, per
+    /// vertex of `mesh`; `None` for a primitive without a material. Empty for OBJ and for
+    /// glTF files in which no primitive has a material. Textures are not read.
+    pub base_color: Vec<Option<[f64; 4]>>,
 }
 
 /// Errors of [`Scene::pose`].
@@ -371,6 +375,7 @@ impl Scene {
         let mut positions = Vec::new();
         let mut bindings = Vec::new();
         let mut uv1 = Vec::new();
+        let mut base_color = Vec::new();
         let indices = tris
             .iter()
             .map(|t| {
@@ -381,6 +386,9 @@ impl Scene {
                         bindings.push(self.bindings[v as usize]);
                         if let Some(&uv) = self.uv1.get(v as usize) {
                             uv1.push(uv);
+                        }
+                        if let Some(&c) = self.base_color.get(v as usize) {
+                            base_color.push(c);
                         }
                     }
                     remap[v as usize]
@@ -394,6 +402,7 @@ impl Scene {
             animations: self.animations.clone(),
             bindings,
             uv1,
+            base_color,
         })
     }
 
@@ -585,6 +594,7 @@ mod tests {
             skins,
             animations: vec![anim],
             uv1: Vec::new(),
+            base_color: Vec::new(),
             bindings: vec![
                 bind([0.0, 2.0, 0.0], [0.0, 1.0, 0.0, 0.0]),
                 bind([0.0, 2.0, 0.0], [0.5, 0.5, 0.0, 0.0]),

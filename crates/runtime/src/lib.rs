@@ -28,4 +28,4 @@ mod tables;
 pub use error::RuntimeError;
 pub use sphere_pose::PosedSpheres;
 pub use sphere_set::{NodeRef, SphereSet, SphereTree};
-pub use tables::{LOCAL_LIGHT_PHI, LOCAL_LIGHT_THETA, MAX_ORDER, NEAR_CONTACT_ALPHA, ShTables};
+pub use tables::{CUBIC_MIN_ORDER, LOCAL_LIGHT_PHI, LOCAL_LIGHT_THETA, MAX_ORDER, NEAR_CONTACT_ALPHA, ShTables};

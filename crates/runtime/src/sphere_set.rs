@@ -3,7 +3,7 @@
 //!
 //! Layout (see `schemas/asset-format.md`, SPHR): leaf spheres `[N, 4]`; optionally internal
 //! nodes level by level from the root with `(first, count)` child ranges into the next level
-//! (or the leaves), and per-leaf skin influences.
+//! (or the leaves), per-leaf skin influences and (kind_version 2) per-leaf albedo.
 
 use crate::error::RuntimeError;
 use crate::shadows::Sphere;
@@ -18,6 +18,7 @@ pub struct SphereSet<'a> {
     children: &'a [u32],
     skin_nodes: Option<&'a [u32]>,
     skin_weights: Option<&'a [f32]>,
+    albedo: Option<&'a [f32]>,
 }
 
 /// A node of the sphere tree as seen by a cut: a leaf or an internal node.
@@ -104,7 +105,15 @@ impl<'a> SphereSet<'a> {
             (None, None) => (None, None),
             _ => return Err(bad("skin_nodes", "skin sections must come together, one row per sphere")),
         };
-        Ok(Self { leaves, levels, nodes, children, skin_nodes: skin.0, skin_weights: skin.1 })
+        let albedo = match section::<f32>(asset, "albedo", DType::F32, 3)? {
+            None => None,
+            Some((_, rows)) if rows != n => return Err(bad("albedo", "one row per sphere expected")),
+            Some((v, _)) if v.iter().any(|x| !(0.0..=1.0).contains(x)) => {
+                return Err(bad("albedo", "a value outside [0, 1] (or NaN)"));
+            }
+            Some((v, _)) => Some(v),
+        };
+        Ok(Self { leaves, levels, nodes, children, skin_nodes: skin.0, skin_weights: skin.1, albedo })
     }
 
     /// Number of leaf spheres.
@@ -166,6 +175,26 @@ impl<'a> SphereSet<'a> {
     /// Whether the asset holds skin influences.
     pub fn is_skinned(&self) -> bool {
         self.skin_nodes.is_some()
+    }
+
+    /// Whether the asset stores a per-sphere albedo (SPHR kind_version 2, `albedo`).
+    pub fn has_albedo(&self) -> bool {
+        self.albedo.is_some()
+    }
+
+    /// Linear RGB albedo of leaf `i` in [0, 1] (`None` without an `albedo` section).
+    pub fn albedo(&self, i: usize) -> Option<[f32; 3]> {
+        let a = self.albedo?.get(3 * i..3 * i + 3)?;
+        Some([a[0], a[1], a[2]])
+    }
+
+    /// Every leaf's albedo in leaf order into `out` (cleared first); `false` (and `out` empty)
+    /// without an `albedo` section.
+    pub fn albedo_into(&self, out: &mut Vec<[f32; 3]>) -> bool {
+        out.clear();
+        let Some(a) = self.albedo else { return false };
+        out.extend(a.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        true
     }
 
     /// Skin influences of leaf `i`: glTF node indices and weights (`None` without skin data).

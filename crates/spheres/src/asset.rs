@@ -9,8 +9,10 @@
 //! | `hierarchy_children` | u32 | [M, 2] | per node: first child, child count — in the next level's nodes, or in `spheres` for the last level |
 //! | `skin_nodes` | u32 | [N, 4] | glTF node index of each influence (`0xFFFFFFFF` unused) |
 //! | `skin_weights` | f32 | [N, 4] | influence weights (sum 1) |
+//! | `albedo` | f32 | [N, 3] | per-sphere linear RGB albedo in [0, 1] (kind_version 2) |
 //!
-//! The hierarchy and skin sections are present only when baked.
+//! The hierarchy, skin and albedo sections are present only when baked. Kind version 2 adds
+//! `albedo`; version 1 files (no albedo) read unchanged.
 
 use penumbra_asset::{Asset, AssetBuilder, Kind};
 
@@ -19,11 +21,19 @@ use crate::fit::{FitResult, StoredHierarchy};
 use crate::skin::SphereSkin;
 
 /// Version of the SPHR layout inside format v1.
-pub const SPHR_KIND_VERSION: u32 = 1;
+pub const SPHR_KIND_VERSION: u32 = 2;
 
-/// Every section name an SPHR v1 asset may contain.
-pub const SPHR_SECTIONS: &[&str] =
-    &["meta", "spheres", "hierarchy_levels", "hierarchy_nodes", "hierarchy_children", "skin_nodes", "skin_weights"];
+/// Every section name an SPHR asset (kind_version 1 or 2) may contain.
+pub const SPHR_SECTIONS: &[&str] = &[
+    "meta",
+    "spheres",
+    "hierarchy_levels",
+    "hierarchy_nodes",
+    "hierarchy_children",
+    "skin_nodes",
+    "skin_weights",
+    "albedo",
+];
 
 fn err(e: impl core::fmt::Display) -> SpheresError {
     SpheresError::Asset(e.to_string())
@@ -57,6 +67,10 @@ pub fn to_asset(r: &FitResult, meta: &serde_json::Value) -> Result<AssetBuilder,
         a.add_u32("skin_nodes", &[s.len(), 4], &nodes).map_err(err)?;
         a.add_f32("skin_weights", &[s.len(), 4], &weights).map_err(err)?;
     }
+    if let Some(al) = &r.albedo {
+        let flat: Vec<f32> = al.iter().flatten().copied().collect();
+        a.add_f32("albedo", &[al.len(), 3], &flat).map_err(err)?;
+    }
     Ok(a)
 }
 
@@ -69,6 +83,8 @@ pub struct SphereSet {
     pub hierarchy: Option<StoredHierarchy>,
     /// Skin influences, if stored.
     pub skin: Option<Vec<SphereSkin>>,
+    /// Per-sphere linear RGB albedo, if stored (kind_version 2).
+    pub albedo: Option<Vec<[f32; 3]>>,
 }
 
 fn rows4<T: Copy>(v: &[T]) -> Vec<[T; 4]> {
@@ -127,5 +143,18 @@ pub fn read(a: &Asset) -> Result<SphereSet, SpheresError> {
         (None, None) => None,
         _ => return Err(err("incomplete skin (need skin_nodes and skin_weights)")),
     };
-    Ok(SphereSet { spheres, hierarchy, skin })
+    let albedo = match sec("albedo") {
+        None => None,
+        Some(s) => {
+            if s.dims() != [spheres.len(), 3] {
+                return Err(err(format!("section `albedo` has dims {:?}, expected [{}, 3]", s.dims(), spheres.len())));
+            }
+            let v = s.to_f32_vec().map_err(err)?;
+            if v.iter().any(|x| !(0.0..=1.0).contains(x)) {
+                return Err(err("section `albedo` holds a value outside [0, 1]"));
+            }
+            Some(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+        }
+    };
+    Ok(SphereSet { spheres, hierarchy, skin, albedo })
 }

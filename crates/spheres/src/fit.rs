@@ -8,6 +8,7 @@ use serde::Serialize;
 use penumbra_geometry::{GridSpec, InsideOracle, MeshBvh, Scene, SignedDistanceGrid, TriMesh, WindingNumber};
 use penumbra_math::progress::Progress;
 
+use crate::albedo;
 use crate::error::SpheresError;
 use crate::frame::Frame;
 use crate::hierarchy::{self, Hierarchy};
@@ -97,6 +98,11 @@ pub struct FitParams {
     /// With `skin`: pad each sphere's radius so the set stays bounding in every sampled
     /// animation pose ([`skin::pose_padding`]).
     pub skin_padding: bool,
+    /// Per-proxy albedo ([`crate::albedo`]): `Some(rgb)` stores an albedo per sphere, from
+    /// the glTF materials where the mesh has them and `rgb` elsewhere; `None` stores albedo
+    /// only when the mesh has glTF materials (triangles without one: the glTF default
+    /// material's `baseColorFactor`, 1).
+    pub albedo: Option<[f64; 3]>,
     /// Measurement sample counts.
     pub metrics: MetricSettings,
 }
@@ -119,6 +125,7 @@ impl FitParams {
             hierarchy: false,
             skin: false,
             skin_padding: false,
+            albedo: None,
             metrics: MetricSettings::default(),
         }
     }
@@ -255,6 +262,9 @@ pub struct FitResult {
     pub spheres: Vec<[f32; 4]>,
     /// The hierarchy.
     pub hierarchy: Option<StoredHierarchy>,
+    /// Per-sphere linear RGB albedo in [0, 1] (same order as `spheres`), if stored
+    /// ([`FitParams::albedo`]).
+    pub albedo: Option<Vec<[f32; 3]>>,
     /// Per-sphere skin influences (same order as `spheres`).
     pub skin: Option<Vec<SphereSkin>>,
     /// Posed coverage of the skinned set.
@@ -710,6 +720,12 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
     };
     // nodes bound the (possibly padded) leaves: `round_to_f32` grows them as needed
     let hierarchy = built.map(|h| store_hierarchy(&h, &stored));
+    let albedo = if p.albedo.is_some() || albedo::has_materials(scene) {
+        let tri = albedo::triangle_albedo(scene, p.albedo.unwrap_or([1.0; 3]))?;
+        Some(albedo::sphere_albedo(scene, &tri, &stored))
+    } else {
+        None
+    };
     progress.update("finish", 2, 3);
     let metrics = measure(&stored);
     progress.update("finish", 3, 3);
@@ -740,6 +756,7 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
     Ok(FitResult {
         spheres: stored,
         hierarchy,
+        albedo,
         skin: skin_w,
         skin_coverage: skin_cov,
         skin_padding: padding,

@@ -12,6 +12,8 @@
 //!   baseline ([`octree`]), f32 rounding that keeps the
 //!   set bounding, [`hierarchy`], [`skin`], and the [`metrics`]. Target searches
 //!   (`Target::Error`, `Target::Union`) bisect to the smallest requested count that meets them.
+//! - [`albedo`]: per-sphere albedo from the glTF materials of the surface each sphere
+//!   stands for (IBPA §5's diffuse proxies).
 //! - [`asset`]: the `SPHR` asset (sections in `schemas/asset-format.md`).
 //! - [`reference`]: ray-traced shadow references (mesh truth, sphere truth) for
 //!   `penumbra verify shadows`.
@@ -19,6 +21,7 @@
 //! Units and frame: spheres are in the input's units and frame (glTF: metres, +Y up). The fit
 //! itself runs in a canonical frame ([`frame`]) so that it is scale-invariant.
 
+pub mod albedo;
 pub mod asset;
 pub mod cvt;
 pub mod error;

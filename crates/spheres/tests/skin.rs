@@ -63,6 +63,7 @@ fn two_bone_bar(shift: [f64; 3]) -> Scene {
         animations: vec![Animation { name: Some("slide".into()), channels: vec![track(0), track(1)] }],
         bindings,
         uv1: Vec::new(),
+        base_color: Vec::new(),
     }
 }
 

@@ -5,6 +5,8 @@
 //!   them skip with a message when the directory is absent, so a bare checkout still passes.
 #![allow(clippy::print_stderr)]
 
+pub mod gltf;
+
 use std::path::PathBuf;
 
 /// The shared data directory: `$PENUMBRA_SHARED_DATA` if set, else `shared/data` beside the

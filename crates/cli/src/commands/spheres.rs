@@ -100,14 +100,17 @@ fn params_json(job: &SpheresJob) -> Value {
         if count.is_none() {
             o.insert("max_count".into(), json!(p.max_count));
         }
+        if let Some(al) = p.albedo {
+            o.insert("albedo".into(), json!(al));
+        }
     }
     v
 }
 
 /// Cache key of a job: tool version, parameters and the mesh bytes.
 pub fn cache_key(job: &SpheresJob, mesh_hash: &str) -> String {
-    let v =
-        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "spheres", "params": params_json(job), "mesh": mesh_hash});
+    // kind_version 2 stores the glTF materials' albedo: a key made before it must not match
+    let v = json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "spheres", "params": params_json(job), "mesh": mesh_hash, "kind_version": SPHR_KIND_VERSION});
     blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
 }
 
@@ -139,7 +142,7 @@ fn strip_seconds(v: &mut Value) {
 }
 
 /// The `--json` object of a result (without bytes/seconds/output).
-fn result_json(r: &FitResult, import: &ImportReport) -> Value {
+fn result_json(r: &FitResult, import: &ImportReport, scene: &Scene) -> Value {
     let m = &r.metrics;
     let rep = &r.report;
     let accepted: Vec<f64> = rep.log.iter().map(|l| l.e).collect();
@@ -194,6 +197,12 @@ fn result_json(r: &FitResult, import: &ImportReport) -> Value {
         o.insert("requested_count".into(), json!(rep.target.is_none().then_some(rep.requested_count)));
         o.insert("settled_count".into(), json!(rep.target.as_ref().map(|_| rep.requested_count)));
         o.insert("hierarchy_levels_with_leaves".into(), json!(r.hierarchy.as_ref().map(|h| h.levels.len() + 1)));
+        if let Some(al) = &r.albedo {
+            let mean: [f64; 3] =
+                std::array::from_fn(|c| al.iter().map(|a| f64::from(a[c])).sum::<f64>() / al.len().max(1) as f64);
+            o.insert("albedo_mean".into(), json!(mean));
+            o.insert("albedo_from_materials".into(), json!(penumbra_spheres::albedo::has_materials(scene)));
+        }
         if let Some(pad) = &r.skin_padding {
             let max = pad.iter().copied().fold(0.0, f64::max);
             o.insert("skin_padding_max".into(), json!(max));
@@ -215,7 +224,7 @@ pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, C
     let r = penumbra_spheres::fit(&scene, &job.params, &reporter)
         .map_err(|e| CliError::input(anyhow!("{}: {e}", job.mesh.display())))?;
     reporter.finish();
-    let metrics = result_json(&r, &import);
+    let metrics = result_json(&r, &import, &scene);
     let mut meta_metrics = metrics.clone();
     strip_seconds(&mut meta_metrics);
     if let Some(o) = meta_metrics.as_object_mut() {
@@ -232,6 +241,7 @@ pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, C
             "bounding": "every mesh vertex, every surface subdivision point and every interior grid point lies inside at least one sphere, evaluated in f64 from the stored f32 values",
             "hierarchy": "levels from the root; hierarchy_children (first, count) index the next level, or `spheres` for the last level",
             "skin": "P' = sum_b w_b * G_b(t) * G_b(rest)^-1 * P (G: global transform of glTF node skin_nodes[b]); radius unchanged",
+            "albedo": "per sphere, linear RGB in [0, 1]: area-weighted mean of the glTF baseColorFactor (or --albedo) of the surface whose sub-triangle centroids the sphere holds most deeply (smallest |p - c| / r)",
         },
         "params": params_json(job),
         "input": {
@@ -286,9 +296,21 @@ pub fn job_from_args(a: &SpheresFitArgs) -> Result<SpheresJob, CliError> {
     params.hierarchy = a.hierarchy;
     params.skin = a.skin;
     params.skin_padding = a.skin_padding;
+    params.albedo = a.albedo.as_deref().map(parse_albedo).transpose()?;
     params.metrics.seed = a.seed;
     params.validate().map_err(CliError::input)?;
     Ok(SpheresJob { mesh, mesh_name: a.mesh_name.clone(), params, output })
+}
+
+/// Parses `--albedo R,G,B` or `--albedo A` (each in [0, 1]).
+pub fn parse_albedo(s: &str) -> Result<[f64; 3], CliError> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().unwrap_or_default();
+    let ok = |v: &[f64]| v.iter().all(|x| (0.0..=1.0).contains(x));
+    match v.as_slice() {
+        [a] if ok(&v) => Ok([*a; 3]),
+        [r, g, b] if ok(&v) => Ok([*r, *g, *b]),
+        _ => Err(CliError::input(anyhow!("--albedo {s}: expected R,G,B or one value, each in [0, 1]"))),
+    }
 }
 
 /// Runs `penumbra spheres`.

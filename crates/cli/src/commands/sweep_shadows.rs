@@ -145,7 +145,7 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
                     time: None,
                     frames: None,
                     indirect: false,
-                    albedo: "0.8,0.8,0.8".into(),
+                    albedo: None,
                     json: false,
                 };
                 let r = evaluate(&v)?;

@@ -156,9 +156,10 @@ pub struct VerifyShadowsArgs {
     /// spheres: reports `nrmse_indirect` per operator and each one's cost.
     #[arg(long)]
     pub indirect: bool,
-    /// Albedo of the proxies for `--indirect`, `R,G,B` in [0, 1].
-    #[arg(long, value_name = "R,G,B", default_value = "0.8,0.8,0.8")]
-    pub albedo: String,
+    /// Albedo of every proxy for `--indirect`, `R,G,B` (or one value) in [0, 1]. Default: the
+    /// SPHR's per-sphere albedo (`albedo` section) when it has one, else 0.8.
+    #[arg(long, value_name = "R,G,B")]
+    pub albedo: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -439,9 +440,18 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
             a.tables.display()
         )));
     }
-    let albedo = a.indirect.then(|| parse_albedo(&a.albedo)).transpose()?;
+    // per-sphere albedo of the proxies: --albedo for all, else the SPHR's, else 0.8
+    let albedo: Option<(Vec<[f64; 3]>, &str)> = if !a.indirect {
+        None
+    } else if let Some(s) = a.albedo.as_deref() {
+        Some((vec![crate::commands::spheres::parse_albedo(s)?; set.len()], "flag"))
+    } else if set.has_albedo() {
+        Some(((0..set.len()).map(|i| set.albedo(i).unwrap_or([0.0; 3]).map(f64::from)).collect(), "sphr"))
+    } else {
+        Some((vec![[0.8; 3]; set.len()], "default"))
+    };
     let env_sh3 = if a.indirect { env_rgb_sh(&env, 3) } else { Vec::new() };
-    let indirect_in = albedo.map(|al| (al, env_sh3.as_slice()));
+    let indirect_in = albedo.as_ref().map(|al| (al.0.as_slice(), env_sh3.as_slice()));
     let env_ctx = EnvCtx { env: &env, light_bl: &light_bl, eval: ShEval::new(order) };
     let mut frames: Vec<FrameOut> = Vec::with_capacity(poses.len());
     for &p in &poses {
@@ -596,23 +606,17 @@ pub fn evaluate(a: &VerifyShadowsArgs) -> Result<ShadowReport, CliError> {
     if let (Some(o), Some(Value::Object(l))) = (json.as_object_mut(), local_json) {
         o.extend(l);
     }
-    if let (Some(o), Some(al)) = (json.as_object_mut(), albedo) {
+    if let (Some(o), Some((al, source))) = (json.as_object_mut(), albedo.as_ref()) {
         let outs: Vec<&indirect::IndirectOut> = frames.iter().filter_map(|f| f.indirect.as_ref()).collect();
-        if let Value::Object(l) = indirect::report(&outs, al) {
+        if let Value::Object(l) = indirect::report(&outs, al, source) {
             o.extend(l);
         }
     }
     Ok(ShadowReport { json, runtime, mesh_truth })
 }
 
-/// Parses `--albedo R,G,B`.
-fn parse_albedo(s: &str) -> Result<[f64; 3], CliError> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().unwrap_or_default();
-    if v.len() != 3 || v.iter().any(|x| !(0.0..=1.0).contains(x)) {
-        return Err(CliError::input(anyhow!("--albedo {s}: expected R,G,B with each in [0, 1]")));
-    }
-    Ok([v[0], v[1], v[2]])
-}
+/// Per-sphere albedo and the order-3 environment SH of `--indirect`.
+type IndirectIn<'a> = (&'a [[f64; 3]], &'a [[f64; 3]]);
 
 /// The environment light of a verification.
 struct EnvCtx<'e> {
@@ -661,7 +665,7 @@ fn evaluate_frame(
     mesh: &TriMesh,
     env: &EnvCtx<'_>,
     local: Option<local_light::Light>,
-    indirect_in: Option<([f64; 3], &[[f64; 3]])>,
+    indirect_in: Option<IndirectIn<'_>>,
 ) -> Result<FrameOut, CliError> {
     let order = ev.order();
     let recv = receivers(mesh, a)?;

@@ -75,8 +75,15 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
     let nodes = read_nodes(&doc).map_err(data)?;
     let skins = read_skins(&doc, &mut store).map_err(data)?;
     let animations = read_animations(&doc, &mut store).map_err(data)?;
-    let scene_shell =
-        Scene { mesh: TriMesh::default(), nodes, skins, animations, bindings: Vec::new(), uv1: Vec::new() };
+    let scene_shell = Scene {
+        mesh: TriMesh::default(),
+        nodes,
+        skins,
+        animations,
+        bindings: Vec::new(),
+        uv1: Vec::new(),
+        base_color: Vec::new(),
+    };
     let rest = scene_shell.global_transforms(None, 0.0).map_err(|e| data(e.to_string()))?;
     let rest: Vec<DMat4> = rest.iter().map(DMat4::from_cols_array_2d).collect();
 
@@ -113,6 +120,8 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
     // TEXCOORD_1 per vertex while every triangle primitive has it
     let mut uv1: Option<Vec<[f64; 2]>> = Some(Vec::new());
     let mut triangle_primitives = 0usize;
+    // material baseColorFactor per vertex (`None`: no material); dropped if no primitive has one
+    let mut base_color: Vec<Option<[f64; 4]>> = Vec::new();
     let mut morph_warned = false;
     for &(node_index, mesh_index) in &instances {
         let gmesh = doc.meshes().nth(mesh_index).ok_or_else(|| data(format!("mesh {mesh_index} does not exist")))?;
@@ -233,6 +242,11 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
                 return Err(data("more than 2^32 vertices".into()));
             }
             let node_m = node_index.map_or(DMat4::IDENTITY, |n| rest[n]);
+            let factor = prim.material().index().map(|_| {
+                let f = prim.material().pbr_metallic_roughness().base_color_factor();
+                f.map(f64::from)
+            });
+            base_color.extend(std::iter::repeat_n(factor, vcount));
             for v in 0..vcount {
                 let e = pos.element(v);
                 let local = [e[0], e[1], e[2]];
@@ -294,7 +308,10 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
             report.source_triangles
         ))));
     }
-    Ok((Scene { mesh: clean, bindings, uv1: uv1.unwrap_or_default(), ..scene_shell }, report))
+    if base_color.iter().all(Option::is_none) {
+        base_color.clear();
+    }
+    Ok((Scene { mesh: clean, bindings, uv1: uv1.unwrap_or_default(), base_color, ..scene_shell }, report))
 }
 
 /// The gltf crate's reference validation, except that required extensions it does not

@@ -152,6 +152,32 @@ impl ShadowEvaluator<'_> {
         albedo: [f32; 3],
         op: IndirectOperator,
     ) -> Shaded {
+        self.indirect_impl(p, n, spheres, |_| albedo, op)
+    }
+
+    /// [`ShadowEvaluator::shade_with_indirect_by`] with an albedo per proxy: `albedo[i]`
+    /// (linear RGB) for `spheres[i]`, as stored in an SPHR `albedo` section
+    /// ([`crate::SphereSet::albedo_into`]). A sphere without an entry (`i ≥ albedo.len()`)
+    /// reflects nothing; it still shadows.
+    pub fn shade_with_indirect_per_sphere(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        spheres: &[Sphere],
+        albedo: &[[f32; 3]],
+        op: IndirectOperator,
+    ) -> Shaded {
+        self.indirect_impl(p, n, spheres, |i| albedo.get(i).copied().unwrap_or([0.0; 3]), op)
+    }
+
+    fn indirect_impl(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        spheres: &[Sphere],
+        albedo_of: impl Fn(usize) -> [f32; 3],
+        op: IndirectOperator,
+    ) -> Shaded {
         let order = self.order;
         let n2 = order * order;
         let mut f = [0.0f32; N2];
@@ -171,7 +197,7 @@ impl ShadowEvaluator<'_> {
         let mut m = [0.0f32; 81];
         let basis3 = &self.basis3;
         basis3.rotate_zonal(&self.cosine_star[..3], n, &mut h);
-        for &s0 in spheres {
+        for (si, &s0) in spheres.iter().enumerate() {
             let Some(s) = self.effective(s0, p, n) else { continue };
             let w = sub(s.center, p);
             let dist = dot(w, w).sqrt();
@@ -190,6 +216,7 @@ impl ShadowEvaluator<'_> {
             basis3.eval(dir, &mut y);
             // V_i·H with V_i = rot(v*, d̂)
             let vh: f32 = (0..9).map(|i| v[band(i)] * y[i] * h[i]).sum();
+            let albedo = albedo_of(si);
             match op {
                 IndirectOperator::Averaged | IndirectOperator::PointSampled => {
                     if op == IndirectOperator::Averaged {

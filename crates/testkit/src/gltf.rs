@@ -1,0 +1,120 @@
+//! Minimal glTF 2.0 binary (GLB) writer for tests: one node and one mesh whose primitives are
+//! the given parts, each with its own material (`baseColorFactor`) or none.
+
+/// One primitive: positions, triangles and the material's `baseColorFactor` (`None`: no
+/// material).
+#[derive(Debug, Clone, Copy)]
+pub struct Part<'a> {
+    /// Vertex positions.
+    pub positions: &'a [[f32; 3]],
+    /// Triangles (indices into `positions`).
+    pub triangles: &'a [[u32; 3]],
+    /// `baseColorFactor` of the part's material, or no material.
+    pub base_color: Option<[f32; 4]>,
+}
+
+/// The GLB bytes of a scene with one node holding a mesh of `parts`.
+pub fn glb(parts: &[Part<'_>]) -> Vec<u8> {
+    let mut bin: Vec<u8> = Vec::new();
+    let (mut views, mut accessors, mut prims, mut materials) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for p in parts {
+        let off = bin.len();
+        bin.extend(p.positions.iter().flatten().flat_map(|x| x.to_le_bytes()));
+        let plen = bin.len() - off;
+        let ioff = bin.len();
+        bin.extend(p.triangles.iter().flatten().flat_map(|x| x.to_le_bytes()));
+        let ilen = bin.len() - ioff;
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for v in p.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        let a = accessors.len();
+        views.push(format!(r#"{{"buffer":0,"byteOffset":{off},"byteLength":{plen}}}"#));
+        views.push(format!(r#"{{"buffer":0,"byteOffset":{ioff},"byteLength":{ilen}}}"#));
+        accessors.push(format!(
+            r#"{{"bufferView":{},"componentType":5126,"count":{},"type":"VEC3","min":[{},{},{}],"max":[{},{},{}]}}"#,
+            a,
+            p.positions.len(),
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2]
+        ));
+        accessors.push(format!(
+            r#"{{"bufferView":{},"componentType":5125,"count":{},"type":"SCALAR"}}"#,
+            a + 1,
+            3 * p.triangles.len()
+        ));
+        let mat = match p.base_color {
+            Some(c) => {
+                materials.push(format!(
+                    r#"{{"pbrMetallicRoughness":{{"baseColorFactor":[{},{},{},{}]}}}}"#,
+                    c[0], c[1], c[2], c[3]
+                ));
+                format!(r#","material":{}"#, materials.len() - 1)
+            }
+            None => String::new(),
+        };
+        prims.push(format!(r#"{{"attributes":{{"POSITION":{a}}},"indices":{}{mat}}}"#, a + 1));
+    }
+    let mats = if materials.is_empty() { String::new() } else { format!(r#","materials":[{}]"#, materials.join(",")) };
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0,"name":"parts"}}],"meshes":[{{"primitives":[{}]}}]{mats},"buffers":[{{"byteLength":{}}}],"bufferViews":[{}],"accessors":[{}]}}"#,
+        prims.join(","),
+        bin.len(),
+        views.join(","),
+        accessors.join(",")
+    );
+    let mut j = json.into_bytes();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(&j);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(&bin);
+    out
+}
+
+/// A closed axis-aligned box `[lo, hi]` (8 vertices, 12 outward-facing triangles).
+pub fn cuboid(lo: [f32; 3], hi: [f32; 3]) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let v: Vec<[f32; 3]> = (0..8)
+        .map(|i| {
+            [
+                if i & 1 == 0 { lo[0] } else { hi[0] },
+                if i & 2 == 0 { lo[1] } else { hi[1] },
+                if i & 4 == 0 { lo[2] } else { hi[2] },
+            ]
+        })
+        .collect();
+    let t = vec![
+        [0, 2, 3],
+        [0, 3, 1], // -z
+        [4, 5, 7],
+        [4, 7, 6], // +z
+        [0, 1, 5],
+        [0, 5, 4], // -y
+        [2, 6, 7],
+        [2, 7, 3], // +y
+        [0, 4, 6],
+        [0, 6, 2], // -x
+        [1, 3, 7],
+        [1, 7, 5], // +x
+    ];
+    (v, t)
+}
