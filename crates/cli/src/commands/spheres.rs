@@ -94,6 +94,12 @@ fn params_json(job: &SpheresJob) -> Value {
         if p.fine_refine && p.refine && p.method == Method::Lloyd {
             o.insert("fine_refine".into(), json!(true));
         }
+        // the candidate is refined only when it starts within this factor of the SHEXP set's
+        // union (issue 16, fourth pass): where it would have lost the bytes are the same, but a
+        // key must not promise that where it would have won
+        if p.cvt && p.refine && p.method == Method::Lloyd {
+            o.insert("cvt_skip_ratio".into(), json!(penumbra_spheres::fit::CVT_SKIP_RATIO));
+        }
         if p.skin_padding {
             o.insert("skin_padding".into(), json!(true));
         }
