@@ -828,7 +828,8 @@ pub fn bake_incremental(
     let sc_old = Scene::new(geo, old, dict);
     let sc = Scene::new(LevelGeometry { level, links, missing: &dict.missing }, new, dict);
     let boxes: Vec<[[f64; 3]; 2]> = moved.iter().flat_map(|&i| [old.padded_bounds(i), new.padded_bounds(i)]).collect();
-    let keep = |o: [f64; 3], d: [f64; 3]| crate::drt_state::meets_any(&boxes, o, d);
+    let cull = crate::drt_state::Cull::new(boxes);
+    let keep = Some(&cull);
     let dirs = DirectionSet::cosine(params.rays);
     let cdirs = DirectionSet::cosine(params.clutter_rays);
     let recv = receiving_blocks(level, links, new, params.neighborhood);
@@ -852,7 +853,7 @@ pub fn bake_incremental(
                     .map(|&xt| {
                         let mut cast = 0;
                         if full {
-                            cast += scene_texel(&[(&sc, 1)], &dirs, params.seed, xt, |_, _| true, &mut acc, &mut segs);
+                            cast += scene_texel(&[(&sc, 1)], &dirs, params.seed, xt, None, &mut acc, &mut segs);
                         } else {
                             let both = [(&sc_old, -1), (&sc, 1)];
                             cast += 2 * scene_texel(&both, &dirs, params.seed, xt, keep, &mut acc, &mut segs);
@@ -891,8 +892,7 @@ pub fn bake_incremental(
                         let mut cast = 0;
                         let it = (ti, b, o);
                         if is_moved {
-                            cast +=
-                                clutter_texel(&[(&sc, 1)], &cdirs, params.seed, it, |_, _| true, &mut acc, &mut segs);
+                            cast += clutter_texel(&[(&sc, 1)], &cdirs, params.seed, it, None, &mut acc, &mut segs);
                         } else {
                             let both = [(&sc_old, -1), (&sc, 1)];
                             cast += 2 * clutter_texel(&both, &cdirs, params.seed, it, keep, &mut acc, &mut segs);
@@ -1010,7 +1010,7 @@ fn trace(
             let v: Vec<Sums> = chunk
                 .iter()
                 .map(|&xt| {
-                    scene_texel(&[(sc, 1)], &dirs, params.seed, xt, |_, _| true, &mut acc, &mut segs);
+                    scene_texel(&[(sc, 1)], &dirs, params.seed, xt, None, &mut acc, &mut segs);
                     acc.take(dict, level)
                 })
                 .collect();
@@ -1039,7 +1039,7 @@ fn trace(
                 .map(|&ti| {
                     let (o, b) = clutter_origin(sc, ti);
                     let b = b?;
-                    clutter_texel(&[(sc, 1)], &cdirs, params.seed, (ti, b, o), |_, _| true, &mut acc, &mut segs);
+                    clutter_texel(&[(sc, 1)], &cdirs, params.seed, (ti, b, o), None, &mut acc, &mut segs);
                     Some(acc.take(dict, level))
                 })
                 .collect();

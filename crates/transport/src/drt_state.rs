@@ -237,15 +237,15 @@ impl Acc {
     }
 }
 
-/// Casts the rays of scene texel `t` of block `x` that `keep` selects into each of
+/// Casts the rays of scene texel `t` of block `x` (those `cull` keeps, or all) into each of
 /// `scenes` (same level, other clutter), adding `sign` times each outcome to `acc`; returns
 /// how many rays were kept.
-pub(crate) fn scene_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
+pub(crate) fn scene_texel(
     scenes: &[(&Scene<'_>, i64)],
     dirs: &DirectionSet,
     seed: u64,
     (x, t): (usize, usize),
-    keep: F,
+    cull: Option<&Cull>,
     acc: &mut Acc,
     segs: &mut Vec<(usize, f64, f64)>,
 ) -> u64 {
@@ -256,10 +256,14 @@ pub(crate) fn scene_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
     let p = blk.to_world(sh.texels.position(t));
     let fr = sc.geo.frame(x, f);
     let rot = rotation(seed, x as u64, t as u64);
+    let local = cull.map(|c| c.texel(p, &fr, rot)).unwrap_or_default();
     let mut kept = 0;
     for dl in &dirs.dirs {
+        if cull.is_some() && !Cull::near(&local, *dl) {
+            continue;
+        }
         let d = frame_dir(&fr, rotate_z(*dl, rot));
-        if !keep(p, d) {
+        if cull.is_some_and(|c| !meets_any(&c.boxes, p, d)) {
             continue;
         }
         kept += 1;
@@ -313,14 +317,15 @@ pub(crate) fn clutter_origin(sc: &Scene<'_>, i: usize) -> ([f64; 3], Option<usiz
     (o, sc.geo.block_of(o))
 }
 
-/// Casts the rays of clutter texel `i` (from block `b`) that `keep` selects into each of
-/// `scenes`, adding `sign` times each outcome to `acc`; returns how many rays were kept.
-pub(crate) fn clutter_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
+/// Casts the rays of clutter texel `i` (from block `b`; those `cull` keeps, or all) into
+/// each of `scenes`, adding `sign` times each outcome to `acc`; returns how many rays were
+/// kept.
+pub(crate) fn clutter_texel(
     scenes: &[(&Scene<'_>, i64)],
     dirs: &DirectionSet,
     seed: u64,
     (i, b, o): (usize, usize, [f64; 3]),
-    keep: F,
+    cull: Option<&Cull>,
     acc: &mut Acc,
     segs: &mut Vec<(usize, f64, f64)>,
 ) -> u64 {
@@ -331,10 +336,14 @@ pub(crate) fn clutter_texel<F: Fn([f64; 3], [f64; 3]) -> bool>(
     let rot = rotation(seed ^ 0x4342, u64::MAX - 1, i as u64);
     let own = sc.clutter.charts[tx.chart].instance;
     let skip = if sc.clutter.is_box(own) { own } else { usize::MAX };
+    let local = cull.map(|c| c.texel(o, &fr, rot)).unwrap_or_default();
     let mut kept = 0;
     for dl in &dirs.dirs {
+        if cull.is_some() && !Cull::near(&local, *dl) {
+            continue;
+        }
         let d = frame_dir(&fr, rotate_z(*dl, rot));
-        if !keep(o, d) {
+        if cull.is_some_and(|c| !meets_any(&c.boxes, o, d)) {
             continue;
         }
         kept += 1;
@@ -531,6 +540,58 @@ pub(crate) fn meets_any(boxes: &[[[f64; 3]; 2]], o: [f64; 3], d: [f64; 3]) -> bo
         }
         nan || lo <= hi
     })
+}
+
+/// The rays an incremental re-bake traces again: those that meet a moved instance's padded
+/// box (old or new place) for `t ≥ 0`. A texel's rays are first tested against each box's
+/// bounding sphere in the texel's own frame (three multiply-adds per ray, no division), then
+/// the survivors against the boxes ([`meets_any`]).
+#[derive(Debug, Clone)]
+pub(crate) struct Cull {
+    boxes: Vec<[[f64; 3]; 2]>,
+    /// Centre and squared radius of each box's sphere, the radius enlarged by 10⁻⁶ of itself
+    /// (and 10⁻⁹) so that rounding never makes the sphere test stricter than the box test.
+    spheres: Vec<([f64; 3], f64)>,
+}
+
+impl Cull {
+    pub(crate) fn new(boxes: Vec<[[f64; 3]; 2]>) -> Self {
+        let spheres = boxes
+            .iter()
+            .map(|[lo, hi]| {
+                let c = core::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+                let r = (0..3).map(|k| (0.5 * (hi[k] - lo[k])).powi(2)).sum::<f64>().sqrt();
+                let r = r * (1.0 + 1e-6) + 1e-9;
+                (c, r * r)
+            })
+            .collect();
+        Self { boxes, spheres }
+    }
+
+    /// Per sphere, for the texel at `o` with frame `fr` and rotation `rot`: the centre's
+    /// offset in the frame the shared directions are given in, its squared length and `r²`.
+    fn texel(&self, o: [f64; 3], fr: &[[f64; 3]; 3], (c, s): (f64, f64)) -> Vec<([f64; 3], f64, f64)> {
+        self.spheres
+            .iter()
+            .map(|&(ctr, r2)| {
+                let v = [ctr[0] - o[0], ctr[1] - o[1], ctr[2] - o[2]];
+                let w: [f64; 3] = core::array::from_fn(|k| fr[k][0] * v[0] + fr[k][1] * v[1] + fr[k][2] * v[2]);
+                // d = frame(rotate_z(dl)), so d·v = dl·rotate_z⁻¹(w)
+                let wl = [c * w[0] + s * w[1], -s * w[0] + c * w[1], w[2]];
+                (wl, v[0] * v[0] + v[1] * v[1] + v[2] * v[2], r2)
+            })
+            .collect()
+    }
+
+    /// Whether the unit ray along `dl` (shared frame) comes within a sphere's radius for
+    /// `t ≥ 0`.
+    #[inline]
+    fn near(local: &[([f64; 3], f64, f64)], dl: [f64; 3]) -> bool {
+        local.iter().any(|&(w, vv, r2)| {
+            let t = w[0] * dl[0] + w[1] * dl[1] + w[2] * dl[2];
+            vv <= r2 || (t >= 0.0 && vv - t * t <= r2)
+        })
+    }
 }
 
 /// What an incremental re-bake did.
