@@ -571,6 +571,14 @@ impl Cull {
     /// Per sphere, for the texel at `o` with frame `fr` and rotation `rot`: the centre's
     /// offset in the frame the shared directions are given in, its squared length and `r²`.
     fn texel(&self, o: [f64; 3], fr: &[[f64; 3]; 3], (c, s): (f64, f64)) -> Vec<([f64; 3], f64, f64)> {
+        // the distance test needs unit directions, which an orthonormal frame keeps; any
+        // other frame keeps every ray (the box test alone decides)
+        let ortho = (0..3).all(|i| {
+            (0..3).all(|j| {
+                let d = fr[i][0] * fr[j][0] + fr[i][1] * fr[j][1] + fr[i][2] * fr[j][2];
+                (d - f64::from(u8::from(i == j))).abs() < 1e-9
+            })
+        });
         self.spheres
             .iter()
             .map(|&(ctr, r2)| {
@@ -578,7 +586,7 @@ impl Cull {
                 let w: [f64; 3] = core::array::from_fn(|k| fr[k][0] * v[0] + fr[k][1] * v[1] + fr[k][2] * v[2]);
                 // d = frame(rotate_z(dl)), so d·v = dl·rotate_z⁻¹(w)
                 let wl = [c * w[0] + s * w[1], -s * w[0] + c * w[1], w[2]];
-                (wl, v[0] * v[0] + v[1] * v[1] + v[2] * v[2], r2)
+                (wl, v[0] * v[0] + v[1] * v[1] + v[2] * v[2], if ortho { r2 } else { f64::INFINITY })
             })
             .collect()
     }
@@ -635,6 +643,37 @@ pub fn compatible(old: &ClutterScene, new: &ClutterScene) -> Result<(), String> 
 mod tests {
     use super::*;
     use crate::clutter::ClutterHit;
+
+    #[test]
+    fn the_sphere_test_never_drops_a_ray_the_box_test_keeps() {
+        use penumbra_math::rng::{hash4, unit_f64};
+        let boxes = vec![[[0.2, 0.0, 0.3], [0.32, 0.75, 0.42]], [[0.55, 0.0, 0.1], [0.6, 0.2, 0.9]]];
+        let cull = Cull::new(boxes.clone());
+        let dirs = DirectionSet::cosine(256);
+        let (mut kept, mut near_only) = (0, 0);
+        for k in 0..400u64 {
+            let u = |j: u64| unit_f64(hash4(5, k, j, 0));
+            // origins inside, beside and on the boxes' planes
+            let o = if k % 7 == 0 { [0.2, u(1), 0.35] } else { [u(1), 0.8 * u(2), u(3)] };
+            let a = [u(4) - 0.5, u(5) - 0.5, u(6) - 0.5];
+            let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+            let nz = a.map(|x| x / l);
+            let (t, b) = penumbra_math::warp::orthonormal_basis(nz);
+            let fr = [t, b, nz];
+            let rot = rotation(9, k, 1);
+            let local = cull.texel(o, &fr, rot);
+            for dl in &dirs.dirs {
+                let d = frame_dir(&fr, rotate_z(*dl, rot));
+                let exact = meets_any(&boxes, o, d);
+                let near = Cull::near(&local, *dl);
+                assert!(near || !exact, "ray {k} {dl:?}: the box test keeps it, the sphere test drops it");
+                kept += usize::from(exact);
+                near_only += usize::from(near && !exact);
+            }
+        }
+        // the test is not vacuous: both kinds occur
+        assert!(kept > 1000 && near_only > 1000, "{kept} {near_only}");
+    }
 
     #[test]
     fn an_uncharted_front_face_is_not_a_back_face() {
