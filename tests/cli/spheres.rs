@@ -353,3 +353,38 @@ fn sweep_spheres_writes_table_plot_and_front() {
     assert_eq!(code, 2);
     assert!(stderr.contains("--grids") && stderr.contains("8..=256"), "{stderr}");
 }
+
+#[test]
+fn bake_config_spheres_stage_takes_albedo_and_skin_padding_rules() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(character(), dir.path().join("c.obj")).unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let head = "output_dir = \"out\"\n[[spheres]]\nmesh = \"c.obj\"\ncount = 6\ngrid = 16\niterations = 4\n";
+    std::fs::write(&cfg, format!("{head}albedo = [0.2, 0.4, 0.6]\n")).unwrap();
+    let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    // an OBJ has no materials: every sphere gets the stage's albedo, as with --albedo
+    let standalone = dir.path().join("s.sphr");
+    let (code, _, stderr) = run(penumbra()
+        .arg("spheres")
+        .arg(dir.path().join("c.obj"))
+        .args(["--count", "6", "--grid", "16", "--iterations", "4", "--albedo", "0.2,0.4,0.6", "-o"])
+        .arg(&standalone));
+    assert_eq!(code, 0, "{stderr}");
+    let a = AssetFile::open(&standalone).unwrap();
+    let b = AssetFile::open(dir.path().join("out/c.sphr")).unwrap();
+    let alb = b.asset().section("albedo").expect("albedo section").as_f32().unwrap().to_vec();
+    assert_eq!(alb.len(), 18);
+    for rgb in alb.chunks(3) {
+        assert_eq!(rgb, [0.2f32, 0.4, 0.6]);
+    }
+    assert_eq!(a.asset().section("albedo").unwrap().bytes(), b.asset().section("albedo").unwrap().bytes());
+    // out of range, and padding without a skin: exit 2 with the key
+    for (extra, want) in [("albedo = 1.5\n", "spheres[0].albedo"), ("skin_padding = true\n", "spheres[0].skin_padding")]
+    {
+        std::fs::write(&cfg, format!("{head}{extra}")).unwrap();
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(want), "{stderr}");
+    }
+}

@@ -128,6 +128,15 @@ pub struct SpheresStage {
     /// twice the CPU time, docs/spheres.md; default false).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub polish: Option<bool>,
+    /// With `skin = true`: pad the radii so the set stays bounding in every animation pose
+    /// (`penumbra spheres --skin-padding`; default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skin_padding: Option<bool>,
+    /// Proxy albedo (IBPA §5), one value or `[r, g, b]`, each in [0, 1], for triangles
+    /// without a glTF material (all of an OBJ): `penumbra spheres --albedo`. Per-sphere
+    /// albedo is stored (SPHR `albedo`) when this is given or the glTF has materials.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo: Option<crate::clutter::Albedo>,
     /// Fit only the glTF node(s) with this name.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh_name: Option<String>,

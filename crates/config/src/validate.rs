@@ -93,6 +93,14 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
                 out.push(issue(&key("iterations"), format!("{it} is out of range (allowed: 1..=10000)")));
             }
         }
+        if let Some(a) = sp.albedo
+            && !a.rgb().iter().all(|v| (0.0..=1.0).contains(v))
+        {
+            out.push(issue(&key("albedo"), format!("{:?} is out of range (allowed: each in [0, 1])", a.rgb())));
+        }
+        if sp.skin_padding == Some(true) && sp.skin != Some(true) {
+            out.push(issue(&key("skin_padding"), "pads the skinned set: it needs `skin = true`"));
+        }
         if let Some(o) = &sp.output {
             if !plain_file_name(o) {
                 out.push(issue(&key("output"), format!("{o:?} must be a plain file name (no directories)")));

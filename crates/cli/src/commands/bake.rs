@@ -152,6 +152,8 @@ fn run_spheres(
     params.hierarchy = sp.hierarchy.unwrap_or(false);
     params.skin = sp.skin.unwrap_or(false);
     params.polish = sp.polish.unwrap_or(false);
+    params.skin_padding = sp.skin_padding.unwrap_or(false);
+    params.albedo = sp.albedo.map(|a| a.rgb());
     let job = super::spheres::SpheresJob {
         mesh: mesh.clone(),
         mesh_name: sp.mesh_name.clone(),
