@@ -136,6 +136,39 @@ fn verify_vo_on_a_box_face_is_a_half_and_with_the_normal_one() {
     assert_eq!(code, 2, "{stderr}");
 }
 
+/// `--max-rmse` gates `rmse_vs_volume`: a bound above the measured value exits 0, one below it
+/// exits 1 with the report still printed; JSON reports the bound and `gate_passed`.
+#[test]
+fn verify_vo_max_rmse_gate() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("box.obj");
+    std::fs::write(&mesh, box_obj([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])).unwrap();
+    let base = ["verify", "vo", "--res", "32", "--radius", "0.2", "--pixels", "100", "--mc", "64", "--json"];
+    let gate = |extra: &[&str]| {
+        let (code, stdout, stderr) = run(penumbra().args(base).arg("--mesh").arg(&mesh).args(extra));
+        let v: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout} {stderr}"));
+        (code, v, stderr)
+    };
+    let (code, v, _) = gate(&[]);
+    assert_eq!(code, 0);
+    assert_eq!(v["gate_passed"], Value::Null);
+    assert_eq!(v["max_rmse"], Value::Null);
+    let e = v["rmse_vs_volume"].as_f64().unwrap();
+    // a radius of 0.2 reaches round the box's edges: the depth buffer misses what lies behind
+    assert!(e > 1e-3, "{v}");
+    let (code, v, _) = gate(&["--max-rmse", &format!("{}", 2.0 * e)]);
+    assert_eq!(code, 0);
+    assert_eq!(v["gate_passed"], true);
+    assert_eq!(v["max_rmse"], 2.0 * e);
+    let (code, v, stderr) = gate(&["--max-rmse", &format!("{}", 0.5 * e)]);
+    assert_eq!(code, 1, "{stderr}");
+    assert_eq!(v["gate_passed"], false);
+    assert!(stderr.contains("quality gate failed: rmse_vs_volume"), "{stderr}");
+    let (code, _, stderr) = run(penumbra().args(["verify", "vo", "--max-rmse", "0"]).arg("--mesh").arg(&mesh));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("--max-rmse"), "{stderr}");
+}
+
 #[test]
 fn verify_vo_knight_lines_beat_points_at_lower_count() {
     let Some(data) = crate::shared_data() else { return };

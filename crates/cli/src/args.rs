@@ -453,10 +453,10 @@ pub struct VerifyFivArgs {
     #[arg(long, value_name = "OUT.png")]
     pub image: Option<PathBuf>,
     /// Exit with code 1 when nrmse (all receivers) exceeds this.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_nrmse: Option<f64>,
     /// Exit with code 1 when nrmse_visible exceeds this.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_nrmse_visible: Option<f64>,
     /// Plane receivers: put the plane D·R below the occluders' lowest point (the occluders
     /// raised D radii; 0 to 1000) and widen the square to ±(3 + D)R.

@@ -3,6 +3,7 @@
 pub mod bake;
 pub mod drt;
 pub mod fiv;
+pub mod gate;
 pub mod inspect;
 pub mod mrt;
 pub mod mrt_level;

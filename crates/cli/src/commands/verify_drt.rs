@@ -62,7 +62,7 @@ pub struct VerifyDrtArgs {
     #[arg(long, value_name = "OUT.png")]
     pub image: Option<PathBuf>,
     /// Exit with code 1 when rel_error_mrt_drt exceeds this.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_rel_error: Option<f64>,
     /// One JSON object on stdout.
     #[arg(long)]
@@ -174,8 +174,13 @@ fn probe_irradiance(
 }
 
 /// Runs `penumbra verify drt`.
-#[allow(clippy::print_stderr)]
 pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    run_report(a, mode).map(|(code, _)| code)
+}
+
+/// Runs `penumbra verify drt` and returns its report too (`penumbra bake` stage gates).
+#[allow(clippy::print_stderr)]
+pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitCode, Value), CliError> {
     let start = Instant::now();
     let sc = load_scene(&a.scene)?;
     // the operators: a baked asset (checked against the scene) or baked here
@@ -363,7 +368,7 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         })
         .collect();
     let cm = &clutter_ok;
-    let v = json!({
+    let mut v = json!({
         "scene": sc.what,
         "blocks": sc.level.blocks.len(),
         "texels": n,
@@ -396,6 +401,10 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         "reference_seconds": reference_seconds,
         "seconds": start.elapsed().as_secs_f64(),
     });
+    let failures = crate::commands::gate::apply(
+        &mut v,
+        &[crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_mrt_drt", max: a.max_rel_error }],
+    );
     if let Some(p) = &a.image {
         let png = top_view(&tex, &[&mrt_one, &s_drt, r1], &keep, sc.ops.face_res);
         ensure_parent(p)?;
@@ -424,13 +433,7 @@ pub fn run(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             ms_mrt
         );
     }
-    if let Some(x) = a.max_rel_error {
-        if f("rel_error_mrt_drt") > x {
-            eprintln!("quality gate failed: rel_error_mrt_drt {:.4} > --max-rel-error {x}", f("rel_error_mrt_drt"));
-            return Ok(ExitCode::QualityGate);
-        }
-    }
-    Ok(ExitCode::Ok)
+    Ok((crate::commands::gate::finish(&failures), v))
 }
 
 /// Texel corners of receiving blocks where a bilinear read mixes texels inside clutter with

@@ -279,8 +279,13 @@ fn metrics(rt: &[[f64; 3]], rf: &[[f64; 3]], keep: impl Fn(usize) -> bool) -> (f
 }
 
 /// Runs `penumbra verify fiv`.
-#[allow(clippy::print_stderr)]
 pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
+    run_report(a).map(|(code, _)| code)
+}
+
+/// Runs `penumbra verify fiv` and returns its report too (`penumbra bake` stage gates).
+#[allow(clippy::print_stderr)]
+pub(crate) fn run_report(a: &VerifyFivArgs) -> Result<(ExitCode, Value), CliError> {
     let start = Instant::now();
     let files: Vec<AssetFile> = a
         .fivs
@@ -529,7 +534,7 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
     if let (Some(img), Some(n)) = (&a.image, recv.grid) {
         write_image(img, n, &rt, &rf, (lo, hi))?;
     }
-    let v: Value = json!({
+    let mut v: Value = json!({
         "nrmse": e_all,
         "nrmse_visible": e_vis,
         "max_abs_error": max_abs,
@@ -560,6 +565,13 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
         "seconds": start.elapsed().as_secs_f64(),
         "image": a.image.as_ref().map(|p| p.display().to_string()),
     });
+    let failures = crate::commands::gate::apply(
+        &mut v,
+        &[
+            crate::commands::gate::Gate { key: "max_nrmse", metric: "nrmse", max: a.max_nrmse },
+            crate::commands::gate::Gate { key: "max_nrmse_visible", metric: "nrmse_visible", max: a.max_nrmse_visible },
+        ],
+    );
     if a.json {
         print_json(&v);
     } else {
@@ -575,14 +587,5 @@ pub fn run(a: &VerifyFivArgs) -> Result<ExitCode, CliError> {
             eprintln!("warning: {w}");
         }
     }
-    let mut failed = false;
-    for (name, value, gate) in [("nrmse", e_all, a.max_nrmse), ("nrmse_visible", e_vis, a.max_nrmse_visible)] {
-        if let Some(g) = gate {
-            if value.is_nan() || value > g {
-                eprintln!("quality gate failed: {name} {value:.4} > {g}");
-                failed = true;
-            }
-        }
-    }
-    Ok(if failed { ExitCode::QualityGate } else { ExitCode::Ok })
+    Ok((crate::commands::gate::finish(&failures), v))
 }

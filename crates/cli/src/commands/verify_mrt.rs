@@ -53,7 +53,7 @@ pub struct VerifyMrtArgs {
     #[arg(long)]
     pub image: Option<PathBuf>,
     /// Exit with code 1 when rel_error_one_bounce exceeds this (a quality gate for CI).
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_rel_error: Option<f64>,
     /// One JSON object on stdout.
     #[arg(long)]
@@ -140,9 +140,14 @@ pub fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
     t[t.len() / 2]
 }
 
-#[allow(clippy::print_stderr)]
 /// Runs `penumbra verify mrt`.
 pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    run_report(a, mode).map(|(code, _)| code)
+}
+
+/// Runs `penumbra verify mrt` and returns its report too (`penumbra bake` stage gates).
+#[allow(clippy::print_stderr)]
+pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitCode, serde_json::Value), CliError> {
     let start = Instant::now();
     let d = load_dict(&a.dict)?;
     // a baked MRTL asset: its own level and operators (checked against the dictionary)
@@ -256,7 +261,7 @@ pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             })
         })
         .collect();
-    let v = json!({
+    let mut v = json!({
         "level": what,
         "blocks": level.blocks.len(),
         "texels": n,
@@ -279,6 +284,10 @@ pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
         "reference_seconds": reference_seconds,
         "seconds": start.elapsed().as_secs_f64(),
     });
+    let failures = crate::commands::gate::apply(
+        &mut v,
+        &[crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_one_bounce", max: a.max_rel_error }],
+    );
     if let Some(p) = &a.image {
         let png = top_view(&tex, &one, &r.one_bounce, d.face_res);
         ensure_parent(p)?;
@@ -312,15 +321,7 @@ pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
             l["block"]
         );
     }
-    if let Some(x) = a.max_rel_error {
-        let e = v["rel_error_one_bounce"].as_f64().unwrap_or(f64::NAN);
-        // NaN fails the gate too
-        if e.is_nan() || e > x {
-            eprintln!("quality gate failed: rel_error_one_bounce {e:.4} > --max-rel-error {x}");
-            return Ok(ExitCode::QualityGate);
-        }
-    }
-    Ok(ExitCode::Ok)
+    Ok((crate::commands::gate::finish(&failures), v))
 }
 
 /// Top view of the floors (face −y, seen from above: +x right, +z down), `4·face_res`

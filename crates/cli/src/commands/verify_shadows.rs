@@ -134,7 +134,7 @@ pub struct VerifyShadowsArgs {
     #[arg(long, value_name = "FILE")]
     pub image: Option<PathBuf>,
     /// Quality gate: exit 1 when `nrmse_vs_mesh` exceeds it (the report is still printed).
-    #[arg(long, value_name = "NRMSE")]
+    #[arg(long, value_name = "NRMSE", value_parser = crate::commands::gate::parse_max)]
     pub max_nrmse: Option<f64>,
     /// Also shade with a local spherical light of unit radiance at `X,Y,Z` with radius `RADIUS`
     /// (scene units) through the tables' `L_H(θ, φ)` ZH fit (SHEXP §7), against the light
@@ -864,8 +864,13 @@ pub fn write_image(path: &Path, res: usize, runtime: &[[f64; 3]], truth: &[[f64;
 }
 
 /// Runs `penumbra verify shadows`.
-#[allow(clippy::print_stderr)]
 pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
+    run_report(a).map(|(code, _)| code)
+}
+
+/// Runs `penumbra verify shadows` and returns its report too (`penumbra bake` stage gates).
+#[allow(clippy::print_stderr)]
+pub(crate) fn run_report(a: &VerifyShadowsArgs) -> Result<(ExitCode, Value), CliError> {
     let start = Instant::now();
     let r = evaluate(a)?;
     if let Some(img) = &a.image {
@@ -879,14 +884,10 @@ pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
         o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
         o.insert("image".into(), json!(a.image.as_ref().map(|p| p.display().to_string())));
     }
-    let gate_failed = a.max_nrmse.is_some_and(|m| {
-        let e = v["nrmse_vs_mesh"].as_f64().unwrap_or(f64::NAN);
-        e.is_nan() || e > m
-    });
-    if let Some(o) = v.as_object_mut() {
-        o.insert("max_nrmse".into(), json!(a.max_nrmse));
-        o.insert("gate_passed".into(), json!(a.max_nrmse.map(|_| !gate_failed)));
-    }
+    let failures = crate::commands::gate::apply(
+        &mut v,
+        &[crate::commands::gate::Gate { key: "max_nrmse", metric: "nrmse_vs_mesh", max: a.max_nrmse }],
+    );
     if a.json {
         print_json(&v);
     } else {
@@ -916,13 +917,5 @@ pub fn run(a: &VerifyShadowsArgs) -> Result<ExitCode, CliError> {
             eprintln!("  indirect NRMSE: point {:.4}  averaged {:.4}  exact {:.4}", g("point"), g("d"), g("m"));
         }
     }
-    if gate_failed {
-        eprintln!(
-            "quality gate failed: nrmse_vs_mesh {} > --max-nrmse {}",
-            v["nrmse_vs_mesh"],
-            a.max_nrmse.unwrap_or(f64::NAN)
-        );
-        return Ok(ExitCode::QualityGate);
-    }
-    Ok(ExitCode::Ok)
+    Ok((crate::commands::gate::finish(&failures), v))
 }

@@ -73,6 +73,10 @@ pub struct VerifyVoArgs {
     /// Write the estimate over the whole buffer as a grey PNG.
     #[arg(long)]
     pub image: Option<PathBuf>,
+    /// Quality gate: exit 1 when `rmse_vs_volume` (the estimator against the obscurance
+    /// integral over the real mesh) exceeds this.
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
+    pub max_rmse: Option<f64>,
     /// One JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -106,8 +110,13 @@ pub fn parse_method(s: &str) -> Result<(Method, usize), String> {
 }
 
 /// Runs `penumbra verify vo`.
-#[allow(clippy::print_stderr)]
 pub fn run(a: &VerifyVoArgs) -> Result<ExitCode, CliError> {
+    run_report(a).map(|(code, _)| code)
+}
+
+/// Runs `penumbra verify vo` and returns its report too (`penumbra bake` stage gates).
+#[allow(clippy::print_stderr)]
+pub(crate) fn run_report(a: &VerifyVoArgs) -> Result<(ExitCode, serde_json::Value), CliError> {
     let start = Instant::now();
     let (method, n) = parse_method(&a.method).map_err(|e| CliError::input(anyhow!(e)))?;
     let domain = if method == Method::Points { Domain::Ball } else { Domain::Disk };
@@ -192,6 +201,10 @@ pub fn run(a: &VerifyVoArgs) -> Result<ExitCode, CliError> {
         o.insert("mesh".into(), json!(a.mesh.display().to_string()));
         o.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
     }
+    let failures = crate::commands::gate::apply(
+        &mut v,
+        &[crate::commands::gate::Gate { key: "max_rmse", metric: "rmse_vs_volume", max: a.max_rmse }],
+    );
     if a.json {
         print_json(&v);
     } else {
@@ -210,5 +223,5 @@ pub fn run(a: &VerifyVoArgs) -> Result<ExitCode, CliError> {
             r.ns_per_pixel
         );
     }
-    Ok(ExitCode::Ok)
+    Ok((crate::commands::gate::finish(&failures), v))
 }
