@@ -93,3 +93,36 @@ fn every_bake_config_example_parses() {
         }
     }
 }
+
+/// A stage `gate` runs the stage's verify after the bake: a bound above the measured value
+/// exits 0; an impossible one (1e-9) exits 1, keeps the asset and names the stage and gate.
+#[test]
+fn bake_stage_gates_pass_and_fail_keeping_the_asset() {
+    let dir = tempfile::tempdir().unwrap();
+    let fiv = "[[fiv]]\nmesh = \"builtin:torus\"\nenv = \"builtin:area-lights\"\nsamples = [12, 7, 5]\ncube_size = 8\n";
+    let cfg = write_config(dir.path(), &format!("output_dir = \"out\"\n{fiv}gate = {{ max_nrmse = 10.0 }}\n"));
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let g = &v["stages"][0]["gate"];
+    assert_eq!(g["passed"], true, "{g}");
+    let e = g["measured"]["nrmse"].as_f64().unwrap();
+    assert!(e > 0.0 && e < 10.0, "{g}");
+    assert_eq!(v["gates_passed"], true);
+    let cfg = write_config(dir.path(), &format!("output_dir = \"out\"\n{fiv}gate = {{ max_nrmse = 1e-9 }}\n"));
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 1, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["gates_passed"], false);
+    assert_eq!(v["failed_gates"][0]["stage"], "fiv[0]");
+    assert_eq!(v["failed_gates"][0]["gate"], "max_nrmse");
+    // the same bake (up to date): the same measured value
+    assert_eq!(v["failed_gates"][0]["value"].as_f64().unwrap(), e);
+    assert!(dir.path().join("out/torus.fivt").is_file());
+    assert!(stderr.contains("quality gate failed: fiv[0]: nrmse"), "{stderr}");
+    // a bound of the wrong kind is an unknown key, named with its path
+    let cfg = write_config(dir.path(), &format!("output_dir = \"out\"\n{fiv}gate = {{ max_rel_error = 1 }}\n"));
+    let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("fiv[0].gate") || stderr.contains("max_rel_error"), "{stderr}");
+}

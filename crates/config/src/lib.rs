@@ -8,11 +8,13 @@
 
 pub mod clutter;
 mod error;
+pub mod gate;
 pub mod level;
 mod types;
 mod validate;
 
 pub use error::{ConfigError, ConfigErrorKind};
+pub use gate::{FivGate, RelErrorGate, VoGate};
 pub use level::{LevelFile, level_schema_json, load_level};
 pub use types::{
     BakeConfig, DrtStage, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage,

@@ -207,6 +207,10 @@ pub struct FivStage {
     /// Store the FIVs as f16 (default false).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half: Option<bool>,
+    /// Quality gate checked after the bake: `verify fiv --plane` with its defaults, exit 1
+    /// above a bound (e.g. `gate = { max_nrmse = 0.05 }`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate: Option<crate::gate::FivGate>,
     /// Output file name inside `output_dir` (default: the mesh's file stem or builtin name,
     /// with `.fivt`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -356,6 +360,10 @@ pub struct MrtLevelStage {
     /// Depth limit of the propagation (interfaces crossed), 0..=64 (default 8).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_depth: Option<u32>,
+    /// Quality gate checked after the bake: `verify mrt` on the baked level with its defaults,
+    /// exit 1 when `rel_error_one_bounce` is above `max_rel_error`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate: Option<crate::gate::RelErrorGate>,
     /// Output file name inside `output_dir` (default `level.mrtl`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
@@ -396,6 +404,10 @@ pub struct DrtStage {
     /// Inpaint scene texels inside clutter (default true).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inpaint: Option<bool>,
+    /// Quality gate checked after the bake: `verify drt` on the baked operators with its
+    /// defaults, exit 1 when `rel_error_mrt_drt` is above `max_rel_error`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate: Option<crate::gate::RelErrorGate>,
     /// Output file name inside `output_dir` (default `clutter.drto`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
@@ -432,6 +444,10 @@ pub struct VoStage {
     /// Random half-spaces per noise measurement, 1..=1000000 (default 4096).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_trials: Option<u32>,
+    /// Quality gate checked after the bake: `verify vo --sets <the baked sets>` on `mesh` with
+    /// its defaults, exit 1 when `rmse_vs_volume` is above `max_rmse`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate: Option<crate::gate::VoGate>,
     /// Output file name inside `output_dir` (default `sets.voss`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,

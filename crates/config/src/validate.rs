@@ -117,6 +117,18 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     }
     for (i, f) in c.fiv.iter().enumerate() {
         let key = |k: &str| format!("fiv[{i}].{k}");
+        if let Some(g) = &f.gate {
+            if g.max_nrmse.is_none() && g.max_nrmse_visible.is_none() {
+                out.push(issue(&key("gate"), "give `max_nrmse` or `max_nrmse_visible`"));
+            }
+            for (k, x) in [("gate.max_nrmse", g.max_nrmse), ("gate.max_nrmse_visible", g.max_nrmse_visible)] {
+                if let Some(x) = x
+                    && crate::gate::bad_bound(x)
+                {
+                    out.push(issue(&key(k), format!("{x} is out of range (allowed: a finite value > 0)")));
+                }
+            }
+        }
         if f.mesh.trim().is_empty() {
             out.push(issue(&key("mesh"), "must not be empty"));
         }
@@ -257,6 +269,14 @@ fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
 }
 
 fn validate_drt(d: &crate::types::DrtStage, c: &crate::types::BakeConfig, out: &mut Vec<Issue>) {
+    if let Some(g) = &d.gate
+        && crate::gate::bad_bound(g.max_rel_error)
+    {
+        out.push(issue(
+            "drt.gate.max_rel_error",
+            format!("{} is out of range (allowed: a finite value > 0)", g.max_rel_error),
+        ));
+    }
     if c.mrt.is_none() {
         out.push(issue("drt", "[drt] needs the [mrt] stage (its dictionary)"));
     }
@@ -297,6 +317,14 @@ fn validate_drt(d: &crate::types::DrtStage, c: &crate::types::BakeConfig, out: &
 }
 
 fn validate_mrt_level(l: &crate::types::MrtLevelStage, mrt: Option<&crate::types::MrtStage>, out: &mut Vec<Issue>) {
+    if let Some(g) = &l.gate
+        && crate::gate::bad_bound(g.max_rel_error)
+    {
+        out.push(issue(
+            "mrt_level.gate.max_rel_error",
+            format!("{} is out of range (allowed: a finite value > 0)", g.max_rel_error),
+        ));
+    }
     match mrt {
         None => out.push(issue("mrt_level", "[mrt_level] needs the [mrt] stage (its dictionary)")),
         Some(m) if m.interfaces == Some(false) => {
@@ -327,6 +355,17 @@ fn validate_mrt_level(l: &crate::types::MrtLevelStage, mrt: Option<&crate::types
 }
 
 fn validate_vo(v: &crate::types::VoStage, out: &mut Vec<Issue>) {
+    if let Some(g) = &v.gate {
+        if crate::gate::bad_bound(g.max_rmse) {
+            out.push(issue(
+                "vo.gate.max_rmse",
+                format!("{} is out of range (allowed: a finite value > 0)", g.max_rmse),
+            ));
+        }
+        if g.mesh.trim().is_empty() {
+            out.push(issue("vo.gate.mesh", "must not be empty"));
+        }
+    }
     if let Some(c) = &v.counts {
         if c.is_empty() || c.iter().any(|&n| !(1..=256).contains(&n)) {
             out.push(issue("vo.counts", format!("{c:?} is out of range (allowed: a non-empty list of 1..=256)")));

@@ -376,6 +376,112 @@ fn run_vo(
     })
 }
 
+/// Parses a verify command's arguments from `argv` (its defaults for everything not given),
+/// as the command line would.
+fn verify_args<A: clap::Args + clap::FromArgMatches>(argv: &[std::ffi::OsString]) -> Result<A, CliError> {
+    let cmd = A::augment_args(clap::Command::new("verify").no_binary_name(true));
+    let m = cmd.try_get_matches_from(argv).map_err(|e| CliError::internal(anyhow!("stage gate arguments: {e}")))?;
+    A::from_arg_matches(&m).map_err(|e| CliError::internal(anyhow!("stage gate arguments: {e}")))
+}
+
+fn os(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Vec<std::ffi::OsString> {
+    args.iter().map(|a| a.as_ref().to_os_string()).collect()
+}
+
+/// The gate of stage `name` (item `index`) when it declares one: runs the stage's verify on
+/// its output with the verify's defaults and the gate's bounds. `{verify, passed, failures,
+/// measured, report}`; `failures` are `{gate, metric, value, max}`.
+fn run_gate(
+    cfg: &penumbra_config::LoadedConfig,
+    name: &str,
+    index: usize,
+    out_dir: &Path,
+    mode: ProgressMode,
+) -> Result<Option<Value>, CliError> {
+    use super::gate::{Gate, apply};
+    let c = &cfg.config;
+    let (verify, gates, report) = match name {
+        "fiv" => {
+            let Some(g) = c.fiv.get(index).and_then(|f| f.gate.as_ref()) else { return Ok(None) };
+            let out = out_dir.join(c.fiv[index].output_name());
+            let a: crate::args::VerifyFivArgs = verify_args(&os(&[&"--fiv", &out, &"--plane"]))?;
+            let (_, v) = super::verify_fiv::run_report(&a)?;
+            let gates = vec![
+                Gate { key: "max_nrmse", metric: "nrmse", max: g.max_nrmse },
+                Gate { key: "max_nrmse_visible", metric: "nrmse_visible", max: g.max_nrmse_visible },
+            ];
+            ("verify fiv --plane", gates, v)
+        }
+        "mrt_level" => {
+            let (Some(l), Some(m)) = (&c.mrt_level, &c.mrt) else { return Ok(None) };
+            let Some(g) = &l.gate else { return Ok(None) };
+            let (level, dict) = (out_dir.join(l.output_name()), out_dir.join(m.output_name()));
+            let a: super::verify_mrt::VerifyMrtArgs = verify_args(&os(&[&"--level", &level, &"--dict", &dict]))?;
+            let (_, v) = super::verify_mrt::run_report(&a, mode)?;
+            (
+                "verify mrt",
+                vec![Gate { key: "max_rel_error", metric: "rel_error_one_bounce", max: Some(g.max_rel_error) }],
+                v,
+            )
+        }
+        "drt" => {
+            let (Some(d), Some(m)) = (&c.drt, &c.mrt) else { return Ok(None) };
+            let Some(g) = &d.gate else { return Ok(None) };
+            let dict = out_dir.join(m.output_name());
+            let drt = out_dir.join(d.output_name());
+            let mut argv = os(&[&"--dict", &dict, &"--drt", &drt]);
+            match (&d.example, &c.mrt_level) {
+                (Some(e), _) => argv.extend(os(&[&"--example", e])),
+                (None, Some(l)) => argv.extend(os(&[&"--level", &out_dir.join(l.output_name())])),
+                (None, None) => {}
+            }
+            if let Some(cl) = &d.clutter {
+                argv.extend(os(&[&"--clutter", &cfg.resolve(cl)]));
+            }
+            let (r, b) = (d.clutter_res.unwrap_or(16).to_string(), d.clutter_basis_res.unwrap_or(2).to_string());
+            argv.extend(os(&[&"--clutter-res", &r, &"--clutter-basis-res", &b]));
+            let a: super::verify_drt::VerifyDrtArgs = verify_args(&argv)?;
+            let (_, v) = super::verify_drt::run_report(&a, mode)?;
+            (
+                "verify drt",
+                vec![Gate { key: "max_rel_error", metric: "rel_error_mrt_drt", max: Some(g.max_rel_error) }],
+                v,
+            )
+        }
+        "vo" => {
+            let Some(vo) = &c.vo else { return Ok(None) };
+            let Some(g) = &vo.gate else { return Ok(None) };
+            let mesh = cfg.resolve(&g.mesh);
+            if !mesh.is_file() {
+                return Err(CliError::input(anyhow!(
+                    "{}: `vo.gate.mesh`: mesh {} does not exist",
+                    cfg.path.display(),
+                    mesh.display()
+                )));
+            }
+            let sets = out_dir.join(vo.output_name());
+            let method = g.method.clone().unwrap_or_else(|| "lines:9".into());
+            let a: super::verify_vo::VerifyVoArgs =
+                verify_args(&os(&[&"--mesh", &mesh, &"--sets", &sets, &"--method", &method]))?;
+            let (_, v) = super::verify_vo::run_report(&a)?;
+            ("verify vo", vec![Gate { key: "max_rmse", metric: "rmse_vs_volume", max: Some(g.max_rmse) }], v)
+        }
+        _ => return Ok(None),
+    };
+    let mut report = report;
+    let failures = apply(&mut report, &gates);
+    let measured: serde_json::Map<String, Value> =
+        gates.iter().filter(|g| g.max.is_some()).map(|g| (g.metric.to_string(), report[g.metric].clone())).collect();
+    Ok(Some(json!({
+        "verify": verify,
+        "passed": failures.is_empty(),
+        "bounds": gates.iter().filter_map(|g| g.max.map(|m| (g.key.to_string(), json!(m)))).collect::<serde_json::Map<_, _>>(),
+        "measured": measured,
+        "failures": failures.iter().map(super::gate::Failure::to_json).collect::<Vec<_>>(),
+        "report": report,
+    })))
+}
+
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
@@ -415,6 +521,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
 
     let mut stages = Vec::new();
+    let mut failed_gates: Vec<Value> = Vec::new();
     for (item, &(name, index)) in items.iter().enumerate() {
         let label = if name == "spheres" || name == "fiv" { format!("{name}[{index}]") } else { name.to_string() };
         let skip = |status: &str| json!({"name": label, "status": status});
@@ -428,7 +535,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 continue;
             }
         }
-        let r = match name {
+        let mut r = match name {
             "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
             "spheres" => run_spheres(&cfg, index, &out_dir, a.force, mode)?,
             "fiv" => run_fiv(&cfg, index, &out_dir, a.force, mode)?,
@@ -447,6 +554,23 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 r.value["seconds"].as_f64().unwrap_or(0.0)
             );
         }
+        if let Some(g) = run_gate(&cfg, name, index, &out_dir, mode)? {
+            for f in g["failures"].as_array().into_iter().flatten() {
+                failed_gates.push(json!({"stage": label, "gate": f["gate"], "metric": f["metric"],
+                                         "value": f["value"], "max": f["max"]}));
+            }
+            if !a.json {
+                let what = if g["passed"] == true { "passed" } else { "FAILED" };
+                let m: Vec<String> = g["measured"]
+                    .as_object()
+                    .into_iter()
+                    .flatten()
+                    .map(|(k, v)| format!("{k} {}", v.as_f64().map_or("null".into(), |x| format!("{x:.6}"))))
+                    .collect();
+                eprintln!("{:<11} gate {what} ({}: {})", label, g["verify"].as_str().unwrap_or(""), m.join(", "));
+            }
+            r.value["gate"] = g;
+        }
         stages.push(r.value);
     }
     let report = json!({
@@ -454,6 +578,8 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         "output_dir": out_dir.display().to_string(),
         "shard": a.shard,
         "stages": stages,
+        "gates_passed": failed_gates.is_empty(),
+        "failed_gates": failed_gates,
         "seconds": start.elapsed().as_secs_f64(),
     });
     let report_path = match shard {
@@ -466,5 +592,15 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     } else {
         eprintln!("report: {}", report_path.display());
     }
-    Ok(ExitCode::Ok)
+    for f in &failed_gates {
+        eprintln!(
+            "quality gate failed: {}: {} {} > {} {} (asset kept)",
+            f["stage"].as_str().unwrap_or(""),
+            f["metric"].as_str().unwrap_or(""),
+            f["value"],
+            f["gate"].as_str().unwrap_or(""),
+            f["max"]
+        );
+    }
+    Ok(if failed_gates.is_empty() { ExitCode::Ok } else { ExitCode::QualityGate })
 }
