@@ -90,16 +90,10 @@ fn run_tables(
     let Some(t) = &cfg.config.tables else {
         return Err(CliError::internal(anyhow!("tables stage selected but not configured")));
     };
-    let env = t.env.as_ref().map(|e| cfg.resolve(e));
-    if let Some(e) = &env {
-        if !e.is_file() {
-            return Err(CliError::input(anyhow!(
-                "{}: `tables.env`: environment map {} does not exist",
-                cfg.path.display(),
-                e.display()
-            )));
-        }
-    }
+    let env = match &t.env {
+        Some(e) => Some(existing_file(cfg, "tables.env", "environment map", e)?),
+        None => None,
+    };
     let p = super::tables::params(
         t.order,
         t.theta_samples.unwrap_or(256),
@@ -123,14 +117,7 @@ fn run_spheres(
 ) -> Result<StageReport, CliError> {
     use penumbra_spheres::fit::{FitParams, Target};
     let sp = &cfg.config.spheres[index];
-    let mesh = cfg.resolve(&sp.mesh);
-    if !mesh.is_file() {
-        return Err(CliError::input(anyhow!(
-            "{}: `spheres[{index}].mesh`: mesh {} does not exist",
-            cfg.path.display(),
-            mesh.display()
-        )));
-    }
+    let mesh = existing_file(cfg, &format!("spheres[{index}].mesh"), "mesh", &sp.mesh)?;
     let target = match (sp.count, sp.target_error, sp.target_union) {
         (Some(n), _, _) => Target::Count(n as usize),
         (None, Some(e), _) => Target::Error(e),
@@ -165,6 +152,22 @@ fn run_spheres(
         let o = super::spheres::bake_to(&job, mode)?;
         Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
     })
+}
+
+/// The config-relative path at `key`, resolved; exit 2 naming the config, the key and the
+/// file when it does not exist.
+fn existing_file(
+    cfg: &penumbra_config::LoadedConfig,
+    key: &str,
+    what: &str,
+    p: &str,
+) -> Result<std::path::PathBuf, CliError> {
+    let r = cfg.resolve(p);
+    if r.is_file() {
+        Ok(r)
+    } else {
+        Err(CliError::input(anyhow!("{}: `{key}`: {what} {} does not exist", cfg.path.display(), r.display())))
+    }
 }
 
 fn run_fiv(
@@ -451,14 +454,7 @@ fn run_gate(
         "vo" => {
             let Some(vo) = &c.vo else { return Ok(None) };
             let Some(g) = &vo.gate else { return Ok(None) };
-            let mesh = cfg.resolve(&g.mesh);
-            if !mesh.is_file() {
-                return Err(CliError::input(anyhow!(
-                    "{}: `vo.gate.mesh`: mesh {} does not exist",
-                    cfg.path.display(),
-                    mesh.display()
-                )));
-            }
+            let mesh = existing_file(cfg, "vo.gate.mesh", "mesh", &g.mesh)?;
             let sets = out_dir.join(vo.output_name());
             let method = g.method.clone().unwrap_or_else(|| "lines:9".into());
             let a: super::verify_vo::VerifyVoArgs =
