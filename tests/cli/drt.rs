@@ -408,4 +408,13 @@ fn moving_one_pillar_re_bakes_incrementally_to_the_full_bake_bytes() {
         drt_json(&["--example", "pillars", "--state", state.to_str().unwrap(), "--shard", "0/2"], &d, &out);
     assert_eq!(code, 2, "{stderr}");
     assert!(!out.exists());
+    // a --state path that holds something else (here: an asset) is refused, not overwritten
+    let asset = dir.path().join("a.drto");
+    let before = std::fs::read(&asset).unwrap();
+    let out = dir.path().join("g.drto");
+    let (code, _, stderr) = drt_json(&["--example", "pillars", "--state", asset.to_str().unwrap()], &d, &out);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("a.drto") && stderr.contains("not a DRT state file"), "{stderr}");
+    assert!(!out.exists());
+    assert!(std::fs::read(&asset).unwrap() == before);
 }

@@ -490,6 +490,12 @@ impl DrtState {
         out
     }
 
+    /// Whether `b` starts like a DRT state file of any version (the magic without its version
+    /// byte): a file that does not is not ours to overwrite.
+    pub fn is_state_file(b: &[u8]) -> bool {
+        b.len() >= 7 && b[..7] == MAGIC[..7]
+    }
+
     /// Parses [`DrtState::to_bytes`]; `Err` names what is wrong.
     pub fn from_bytes(b: &[u8]) -> Result<Self, TransportError> {
         let bad = |m: &str| TransportError::Input(format!("DRT state: {m}"));

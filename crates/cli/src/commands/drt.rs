@@ -453,6 +453,14 @@ pub fn bake_scene_stateful(
     let key = state_key(sc, params);
     let insts = state_instances(sc);
     let prev = match std::fs::read(state_path) {
+        // a stale or corrupt state is rebuilt; a file that is no state at all (a typo'd path
+        // to an asset, say) is refused rather than overwritten
+        Ok(b) if !b.is_empty() && !DrtState::is_state_file(&b) => {
+            return Err(CliError::input(anyhow!(
+                "{}: not a DRT state file; refusing to overwrite it (remove it or give another --state path)",
+                state_path.display()
+            )));
+        }
         Ok(b) => DrtState::from_bytes(&b).map_err(|e| format!("{}: {e}", state_path.display())),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err("no state file yet".into()),
         Err(e) => Err(format!("cannot read {}: {e}", state_path.display())),
