@@ -93,3 +93,26 @@ fn not_an_asset_and_missing_file_are_clean_errors() {
     assert_eq!(code, 2);
     assert!(stderr.contains("nope") && stderr.contains("gamma_value"), "{stderr}");
 }
+
+#[test]
+fn a_reader_that_closes_the_pipe_early_is_not_a_crash() {
+    // `penumbra … --json | grep -q …` under `set -o pipefail`: the reader is gone before the
+    // report is written; println! would panic (exit 101). The command keeps its own exit code.
+    let dir = tempfile::tempdir().unwrap();
+    let a = small_asset(dir.path());
+    for args in [vec!["--json"], vec![], vec!["--section", "cap_log", "--json"]] {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_penumbra"))
+            .args(["--progress", "none", "inspect"])
+            .arg(&a)
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // close the read end before the child writes
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}

@@ -98,7 +98,7 @@ fn describe(asset: &Asset<'_>, path: &str, dump: bool) -> Result<Value, CliError
 }
 
 /// Runs `penumbra inspect`.
-#[allow(clippy::print_stdout, clippy::print_stderr)]
+#[allow(clippy::print_stderr)]
 pub fn run(a: &InspectArgs) -> Result<ExitCode, CliError> {
     let file = AssetFile::open_unverified(&a.asset).map_err(CliError::input)?;
     let asset = file.asset();
@@ -115,8 +115,8 @@ pub fn run(a: &InspectArgs) -> Result<ExitCode, CliError> {
         if a.json {
             print_json(&v);
         } else {
-            println!("{name}: {} {:?}", s.dtype().name(), s.dims());
-            println!("{}", serde_json::to_string(&v["values"]).unwrap_or_default());
+            crate::outln!("{name}: {} {:?}", s.dtype().name(), s.dims());
+            crate::outln!("{}", serde_json::to_string(&v["values"]).unwrap_or_default());
         }
     } else {
         let d = describe(&asset, &path, a.dump)?;
@@ -124,11 +124,15 @@ pub fn run(a: &InspectArgs) -> Result<ExitCode, CliError> {
             print_json(&d);
         } else {
             let (maj, min) = asset.version();
-            println!("{path}: {} bytes, penumbra asset format {maj}.{min}, kind {}", asset.file_size(), asset.kind());
-            println!("{:<22} {:<5} {:<18} {:>10} {:>9} ok", "section", "type", "dims", "bytes", "crc32c");
+            crate::outln!(
+                "{path}: {} bytes, penumbra asset format {maj}.{min}, kind {}",
+                asset.file_size(),
+                asset.kind()
+            );
+            crate::outln!("{:<22} {:<5} {:<18} {:>10} {:>9} ok", "section", "type", "dims", "bytes", "crc32c");
             for (s, row) in asset.iter().zip(d["sections"].as_array().into_iter().flatten()) {
                 let i = s.info();
-                println!(
+                crate::outln!(
                     "{:<22} {:<5} {:<18} {:>10} {:08x} {}{}",
                     i.name(),
                     i.dtype().name(),
@@ -140,13 +144,13 @@ pub fn run(a: &InspectArgs) -> Result<ExitCode, CliError> {
                 );
                 if a.dump && i.name() != penumbra_asset::META_SECTION {
                     if let Some(v) = row.get("values") {
-                        println!("    values: {v}");
+                        crate::outln!("    values: {v}");
                     } else if let Some(v) = row.get("summary") {
-                        println!("    {v}");
+                        crate::outln!("    {v}");
                     }
                 }
             }
-            println!("meta:\n{}", serde_json::to_string_pretty(&d["meta"]).unwrap_or_default());
+            crate::outln!("meta:\n{}", serde_json::to_string_pretty(&d["meta"]).unwrap_or_default());
         }
     }
     if !asset.all_checksums_ok() {

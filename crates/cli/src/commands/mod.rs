@@ -23,7 +23,6 @@ use crate::args::{Cli, Command};
 use crate::exit::{CliError, ExitCode};
 
 /// Runs a parsed command line.
-#[allow(clippy::print_stdout)]
 pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
     if let Some(n) = cli.threads {
         rayon::ThreadPoolBuilder::new().num_threads(n as usize).build_global().map_err(CliError::internal)?;
@@ -56,14 +55,34 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
             } else {
                 penumbra_config::schema_json()
             };
-            print!("{s}");
+            stdout_write(&s);
             Ok(ExitCode::Ok)
         }
     }
 }
 
 /// Prints a JSON value on stdout (one object, newline-terminated).
-#[allow(clippy::print_stdout)]
 pub fn print_json(v: &serde_json::Value) {
-    println!("{}", serde_json::to_string_pretty(v).unwrap_or_else(|_| "{}".into()));
+    stdout_write(&format!("{}\n", serde_json::to_string_pretty(v).unwrap_or_else(|_| "{}".into())));
+}
+
+/// Writes text to stdout. A reader that closed the pipe early (`penumbra … --json | grep -q …`,
+/// `| head`) is not an error of the command: the bake already finished and its outputs are
+/// written, so the rest of the report is dropped and the exit code stays the command's own
+/// (`println!` would panic with exit 101 here). Other write errors are reported on stderr.
+#[allow(clippy::print_stderr)]
+pub fn stdout_write(text: &str) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        Err(e) => eprintln!("warning: could not write the report to stdout: {e}"),
+    }
+}
+
+/// `println!` to stdout through [`stdout_write`] (no panic on a closed pipe).
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => { $crate::commands::stdout_write(&format!("{}\n", format_args!($($arg)*))) };
 }
