@@ -388,3 +388,73 @@ fn bake_config_spheres_stage_takes_albedo_and_skin_padding_rules() {
         assert!(stderr.contains(want), "{stderr}");
     }
 }
+
+#[test]
+fn spheres_read_the_base_colour_texture_and_name_an_undecodable_one() {
+    use penumbra_testkit::gltf::{Part, glb_textured, uv_cube};
+    let dir = tempfile::tempdir().unwrap();
+    let (v, t, uv) = uv_cube([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    let part = Part { positions: &v, triangles: &t, base_color: Some([1.0, 1.0, 1.0, 1.0]) };
+    // uniform sRGB 128: linear 0.2158 on every sphere (the factor alone would give 1)
+    let png = penumbra_cli::png::encode_rgb8(2, 2, &[128u8; 12]);
+    let good = dir.path().join("grey.glb");
+    std::fs::write(&good, glb_textured(part, &uv, &png, "image/png", 10497)).unwrap();
+    let out = dir.path().join("grey.sphr");
+    let (code, stdout, stderr) =
+        run(penumbra().arg("spheres").arg(&good).args(["--count", "2", "--json", "-o"]).arg(&out));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["albedo_texture_images"], 1);
+    let lin = ((128.0 / 255.0 + 0.055) / 1.055f64).powf(2.4);
+    for c in v["albedo_mean"].as_array().unwrap() {
+        assert!((c.as_f64().unwrap() - lin).abs() < 1e-5, "{c} vs {lin}");
+    }
+    // an image that is not a PNG/JPEG: exit 2, the file and the image named, no output
+    let bad = dir.path().join("bad.glb");
+    std::fs::write(&bad, glb_textured(part, &uv, b"GIF89a...", "image/png", 10497)).unwrap();
+    let out = dir.path().join("bad.sphr");
+    let (code, _, stderr) = run(penumbra().arg("spheres").arg(&bad).args(["--count", "2", "-o"]).arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("bad.glb") && stderr.contains("image 0"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn node_globs_select_the_chair_and_list_the_nodes_when_nothing_matches() {
+    let Some(data) = shared_data() else { return };
+    let scene = data.join("gltf/MixedLightingExample/MixedLightingExample.gltf");
+    let dir = tempfile::tempdir().unwrap();
+    let tris = |args: &[&str]| -> (i32, u64, String) {
+        let out = dir.path().join("n.sphr");
+        let _ = std::fs::remove_file(&out);
+        let (code, _, stderr) =
+            run(penumbra().arg("spheres").arg(&scene).args(["--count", "4", "-o"]).arg(&out).args(args));
+        if code != 0 {
+            return (code, 0, stderr);
+        }
+        let (_, meta, _) = run(penumbra().arg("inspect").arg(&out).arg("--json"));
+        let v: Value = serde_json::from_str(&meta).unwrap();
+        (code, v["meta"]["input"]["triangles"].as_u64().unwrap(), stderr)
+    };
+    // the four chair nodes together = the sum of each taken alone (the ground plane excluded)
+    let (code, chair, stderr) = tris(&["--node", "SheenChair*"]);
+    assert_eq!(code, 0, "{stderr}");
+    let mut sum = 0;
+    for part in ["SheenChair_fabric", "SheenChair_label", "SheenChair_metal", "SheenChair_wood"] {
+        let (code, t, stderr) = tris(&["--node", part]);
+        assert_eq!(code, 0, "{part}: {stderr}");
+        assert!(t > 0);
+        sum += t;
+    }
+    assert_eq!(chair, sum);
+    let (_, all, _) = tris(&[]);
+    assert!(chair < all, "{chair} vs {all}");
+    // repeatable: the chair's wood and the plane
+    let (code, two, _) = tris(&["--node", "*_wood", "--node", "Plane"]);
+    let (_, plane, _) = tris(&["--node", "Plane"]);
+    let (_, wood, _) = tris(&["--node", "SheenChair_wood"]);
+    assert_eq!((code, two), (0, plane + wood));
+    let (code, _, stderr) = tris(&["--node", "Chair*"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("--node \"Chair*\"") && stderr.contains("SheenChair_fabric"), "{stderr}");
+}

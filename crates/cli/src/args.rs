@@ -230,9 +230,13 @@ pub struct SpheresFitArgs {
     /// is given or the glTF has materials (their baseColorFactor).
     #[arg(long, value_name = "R,G,B")]
     pub albedo: Option<String>,
-    /// Fit only the glTF node(s) with this name.
+    /// Fit only the glTF node(s) with this name (and their descendants).
     #[arg(long, value_name = "NAME")]
     pub mesh_name: Option<String>,
+    /// Fit only the glTF nodes whose name matches PATTERN (glob: `*` any run of characters,
+    /// `?` one character), and their descendants. Repeatable: a node matching any is taken.
+    #[arg(long, value_name = "PATTERN")]
+    pub node: Vec<String>,
     /// Output asset (.sphr). Parent directories are created.
     #[arg(short = 'o', long, required = true)]
     pub output: Option<PathBuf>,
@@ -311,6 +315,10 @@ pub struct FivBakeArgs {
     /// Occluder mesh (.obj, .gltf, .glb) or a procedural one: `builtin:torus`, `builtin:sphere`.
     #[arg(long, required = true)]
     pub mesh: Option<String>,
+    /// Only the glTF nodes whose name matches PATTERN (glob: `*` any run, `?` one character)
+    /// and their descendants occlude. Repeatable: a node matching any is taken.
+    #[arg(long, value_name = "PATTERN")]
+    pub node: Vec<String>,
     /// Environment map (lat-long .exr or .hdr, OpenEXR orientation) or `builtin:area-lights`.
     /// Repeat (with one `-o` per `--env`, in order) to bake a table per environment from one
     /// visibility pass; each output has the bytes of its single-environment bake.

@@ -32,9 +32,10 @@ pub struct ClutterEntry {
     /// in the file's world frame at rest pose, then placed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh: Option<String>,
-    /// With `mesh`: only the triangles of the glTF node of this name.
+    /// With `mesh`: only the triangles of the glTF nodes whose name matches (glob: `*` any
+    /// run, `?` one character), and of their descendants: one pattern or a list.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub node: Option<String>,
+    pub node: Option<crate::types::NodeSelect>,
     /// With `mesh`: how its texels and charts are laid out: `"lightmap"` (the glTF
     /// `TEXCOORD_1` islands; an error when the mesh has none) or `"box-projection"`. Default:
     /// `"lightmap"` when every primitive has `TEXCOORD_1`, else `"box-projection"`.
@@ -136,6 +137,9 @@ pub fn parse_clutter_str(source: &str, path: &Path) -> Result<ClutterFile, Confi
         }
         if c.node.is_some() && c.mesh.is_none() {
             return bad("node", "`node` needs `mesh`".into());
+        }
+        if let Some(m) = crate::validate::node_select_issue(c.node.as_ref()) {
+            return bad("node", m);
         }
         if c.charts.is_some() && c.mesh.is_none() {
             return bad("charts", "`charts` needs `mesh`".into());

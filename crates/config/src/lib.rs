@@ -17,8 +17,8 @@ pub use error::{ConfigError, ConfigErrorKind};
 pub use gate::{FivGate, RelErrorGate, VoGate};
 pub use level::{LevelFile, level_schema_json, load_level};
 pub use types::{
-    BakeConfig, DrtStage, EnvRotate, FivStage, MrtLevelStage, MrtStage, SphereMethod, SpheresStage, TablesStage,
-    UpAxis, VoStage,
+    BakeConfig, DrtStage, EnvRotate, FivStage, MrtLevelStage, MrtStage, NodeSelect, SphereMethod, SpheresStage,
+    TablesStage, UpAxis, VoStage,
 };
 pub use validate::{Issue, validate};
 

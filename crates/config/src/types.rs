@@ -137,12 +137,37 @@ pub struct SpheresStage {
     /// albedo is stored (SPHR `albedo`) when this is given or the glTF has materials.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub albedo: Option<crate::clutter::Albedo>,
-    /// Fit only the glTF node(s) with this name.
+    /// Fit only the glTF node(s) with this name (exact; see `node` for patterns).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh_name: Option<String>,
+    /// Fit only the glTF nodes whose name matches (glob: `*` any run, `?` one character),
+    /// and their descendants: one pattern or a list (`penumbra spheres --node`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<NodeSelect>,
     /// Output file name inside `output_dir` (default: the mesh's file stem + `.sphr`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
+}
+
+/// glTF node selection: one name pattern or a list of them (glob: `*` any run of characters,
+/// `?` one character; a node is selected when its name or an ancestor's matches any).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum NodeSelect {
+    /// One pattern.
+    One(String),
+    /// Several patterns (a node matching any is selected).
+    Many(Vec<String>),
+}
+
+impl NodeSelect {
+    /// The patterns, in order.
+    pub fn patterns(&self) -> Vec<String> {
+        match self {
+            NodeSelect::One(p) => vec![p.clone()],
+            NodeSelect::Many(v) => v.clone(),
+        }
+    }
 }
 
 /// Polar axis of the FIV sample shells.
@@ -177,6 +202,10 @@ pub struct FivStage {
     /// Occluder mesh (.obj, .gltf, .glb; relative to this file) or a procedural occluder:
     /// `builtin:torus`, `builtin:sphere`.
     pub mesh: String,
+    /// With a glTF `mesh`: only the nodes whose name matches (glob: `*` any run, `?` one
+    /// character), and their descendants: one pattern or a list (`penumbra fiv --node`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<NodeSelect>,
     /// Environment map (lat-long .exr or .hdr; relative to this file) or
     /// `builtin:area-lights`.
     pub env: String,

@@ -98,6 +98,9 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
         {
             out.push(issue(&key("albedo"), format!("{:?} is out of range (allowed: each in [0, 1])", a.rgb())));
         }
+        if let Some(m) = node_select_issue(sp.node.as_ref()) {
+            out.push(issue(&key("node"), m));
+        }
         if sp.skin_padding == Some(true) && sp.skin != Some(true) {
             out.push(issue(&key("skin_padding"), "pads the skinned set: it needs `skin = true`"));
         }
@@ -117,6 +120,11 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     }
     for (i, f) in c.fiv.iter().enumerate() {
         let key = |k: &str| format!("fiv[{i}].{k}");
+        if let Some(m) = node_select_issue(f.node.as_ref()) {
+            out.push(issue(&key("node"), m));
+        } else if f.node.is_some() && f.mesh.starts_with("builtin:") {
+            out.push(issue(&key("node"), "selects glTF nodes: it needs a glTF `mesh`, not a builtin occluder"));
+        }
         if let Some(g) = &f.gate {
             if g.max_nrmse.is_none() && g.max_nrmse_visible.is_none() {
                 out.push(issue(&key("gate"), "give `max_nrmse` or `max_nrmse_visible`"));
@@ -200,6 +208,18 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
 }
 
 /// Ranges of the `[mrt]` stage (the same as `penumbra mrt dict`'s options).
+/// What is wrong with a node selection, if anything: an empty list or an empty pattern.
+pub fn node_select_issue(n: Option<&crate::types::NodeSelect>) -> Option<String> {
+    let p = n?.patterns();
+    if p.is_empty() {
+        Some("an empty list selects nothing: give at least one name pattern".into())
+    } else if p.iter().any(String::is_empty) {
+        Some("a pattern must not be empty".into())
+    } else {
+        None
+    }
+}
+
 fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     let range = |out: &mut Vec<Issue>, key: &str, v: Option<u32>, lo: u32, hi: u32| {
         if let Some(v) = v {

@@ -146,3 +146,23 @@ fn fiv_stage_errors_name_the_array_entry_and_line() {
     assert_eq!(e.key, "fiv[0].sampels");
     assert_eq!(e.line, Some(5));
 }
+
+#[test]
+fn node_selection_takes_one_pattern_or_a_list_and_refuses_empty_ones() {
+    let c = parse_str(
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"s.glb\"\ncount = 8\nnode = [\"SheenChair*\", \"Plane\"]\n\
+         [[fiv]]\nmesh = \"s.glb\"\nenv = \"e.exr\"\nnode = \"Crate?\"\n",
+        Path::new("a.toml"),
+    )
+    .unwrap();
+    assert_eq!(c.spheres[0].node.as_ref().unwrap().patterns(), ["SheenChair*", "Plane"]);
+    assert_eq!(c.fiv[0].node.as_ref().unwrap().patterns(), ["Crate?"]);
+    for (src, key) in [
+        ("[[spheres]]\nmesh = \"s.glb\"\ncount = 8\nnode = []\n", "spheres[0].node"),
+        ("[[spheres]]\nmesh = \"s.glb\"\ncount = 8\nnode = [\"\"]\n", "spheres[0].node"),
+        ("[[fiv]]\nmesh = \"builtin:torus\"\nenv = \"e.exr\"\nnode = \"x\"\n", "fiv[0].node"),
+    ] {
+        let e = err(&format!("output_dir = \"out\"\n{src}"));
+        assert!(e.to_string().contains(key), "{e}");
+    }
+}

@@ -58,6 +58,7 @@ pub mod procedural;
 pub mod scene;
 #[cfg(test)]
 mod testutil;
+pub mod texture;
 pub mod voxel;
 
 pub use ball::{Ball, min_enclosing_ball};

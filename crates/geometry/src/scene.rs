@@ -12,6 +12,7 @@
 use glam::{DMat4, DQuat, DVec3};
 
 use crate::mesh::TriMesh;
+use crate::texture::{BaseColorTexture, SceneImage};
 
 /// A column-major 4×4 matrix, `m[col][row]` (glTF layout).
 pub type Mat4 = [[f64; 4]; 4];
@@ -189,8 +190,16 @@ pub struct Scene {
     pub uv1: Vec<[f64; 2]>,
     /// glTF material `baseColorFactor` (linear RGBA, as stored) of each vertex's primitive, per
     /// vertex of `mesh`; `None` for a primitive without a material. Empty for OBJ and for
-    /// glTF files in which no primitive has a material. Textures are not read.
+    /// glTF files in which no primitive has a material. The texture, if any, is in
+    /// `base_color_texture`.
     pub base_color: Vec<Option<[f64; 4]>>,
+    /// Per vertex of `mesh`: the `baseColorTexture` of its primitive's material and the
+    /// vertex's UV in that texture's `TEXCOORD_n` set (`None`: no texture). Empty when no
+    /// primitive has one (and for OBJ).
+    pub base_color_texture: Vec<Option<(BaseColorTexture, [f64; 2])>>,
+    /// The glTF `images` array, encoded ([`crate::texture::MipChain::decode`] decodes one).
+    /// Empty for OBJ.
+    pub images: Vec<SceneImage>,
 }
 
 /// Errors of [`Scene::pose`].
@@ -355,17 +364,54 @@ impl Scene {
             .collect())
     }
 
-    /// The part of the scene instantiated by the glTF node(s) named `name`: the triangles whose
-    /// three vertices belong to such a node, with their vertices and bindings (nodes, skins and
-    /// animations are kept whole so the subset can still be posed). `None` when no triangle
-    /// matches (including scenes without nodes, such as OBJ files).
+    /// The part of the scene instantiated by the glTF node(s) named `name` (exactly) or by
+    /// their descendants; see [`Scene::subset_by_nodes`].
     pub fn subset_by_node_name(&self, name: &str) -> Option<Scene> {
+        let selected: Vec<bool> = self.nodes_under(|n| n == name);
+        self.subset_of_nodes(&selected)
+    }
+
+    /// The part of the scene instantiated by the glTF nodes whose name matches one of
+    /// `patterns` ([`glob_match`]: `*` any run of characters, `?` one character), or by their
+    /// descendants (selecting a group selects what it holds): the triangles whose three
+    /// vertices belong to such a node, with their vertices and per-vertex data (nodes, skins
+    /// and animations are kept whole so the subset can still be posed). `None` when no
+    /// triangle matches (including scenes without nodes, such as OBJ files).
+    pub fn subset_by_nodes(&self, patterns: &[String]) -> Option<Scene> {
+        let selected = self.nodes_under(|n| patterns.iter().any(|p| glob_match(p, n)));
+        self.subset_of_nodes(&selected)
+    }
+
+    /// Names of the scene's named nodes, in file order (for messages).
+    pub fn node_names(&self) -> Vec<&str> {
+        self.nodes.iter().filter_map(|n| n.name.as_deref()).collect()
+    }
+
+    /// Per node: whether its name, or an ancestor's, satisfies `pick`.
+    fn nodes_under(&self, pick: impl Fn(&str) -> bool) -> Vec<bool> {
+        (0..self.nodes.len())
+            .map(|mut i| {
+                // walk to the root (the import checked the hierarchy is acyclic; bounded anyway)
+                for _ in 0..=self.nodes.len() {
+                    if self.nodes[i].name.as_deref().is_some_and(&pick) {
+                        return true;
+                    }
+                    match self.nodes[i].parent {
+                        Some(p) if p < self.nodes.len() => i = p,
+                        _ => return false,
+                    }
+                }
+                false
+            })
+            .collect()
+    }
+
+    fn subset_of_nodes(&self, selected: &[bool]) -> Option<Scene> {
         let matches = |v: u32| {
             self.bindings
                 .get(v as usize)
                 .and_then(|b| b.node)
-                .and_then(|n| self.nodes.get(n as usize))
-                .is_some_and(|n| n.name.as_deref() == Some(name))
+                .is_some_and(|n| selected.get(n as usize).copied().unwrap_or(false))
         };
         let tris: Vec<[u32; 3]> = self.mesh.indices.iter().copied().filter(|t| t.iter().all(|&v| matches(v))).collect();
         if tris.is_empty() {
@@ -376,6 +422,7 @@ impl Scene {
         let mut bindings = Vec::new();
         let mut uv1 = Vec::new();
         let mut base_color = Vec::new();
+        let mut base_color_texture = Vec::new();
         let indices = tris
             .iter()
             .map(|t| {
@@ -390,6 +437,9 @@ impl Scene {
                         if let Some(&c) = self.base_color.get(v as usize) {
                             base_color.push(c);
                         }
+                        if let Some(&c) = self.base_color_texture.get(v as usize) {
+                            base_color_texture.push(c);
+                        }
                     }
                     remap[v as usize]
                 })
@@ -403,6 +453,8 @@ impl Scene {
             bindings,
             uv1,
             base_color,
+            base_color_texture,
+            images: self.images.clone(),
         })
     }
 
@@ -487,6 +539,31 @@ fn sample(s: &Sampler, t: f64, is_rotation: bool, out: &mut [f64]) {
             }
         }
     }
+}
+
+/// Glob match of a node name: `*` matches any run of characters (also none), `?` exactly one,
+/// every other character itself (case-sensitive, no escapes, no character classes).
+pub fn glob_match(pattern: &str, name: &str) -> bool {
+    let (p, n): (Vec<char>, Vec<char>) = (pattern.chars().collect(), name.chars().collect());
+    // iterative matcher with one backtrack point (the last `*`): O(|p|·|n|) worst case
+    let (mut i, mut j) = (0usize, 0usize);
+    let mut star: Option<(usize, usize)> = None;
+    while j < n.len() {
+        if i < p.len() && (p[i] == '?' || (p[i] != '*' && p[i] == n[j])) {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some((i, j));
+            i += 1;
+        } else if let Some((si, sj)) = star {
+            i = si + 1;
+            j = sj + 1;
+            star = Some((si, sj + 1));
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|&c| c == '*')
 }
 
 #[cfg(test)]
@@ -595,6 +672,8 @@ mod tests {
             animations: vec![anim],
             uv1: Vec::new(),
             base_color: Vec::new(),
+            base_color_texture: Vec::new(),
+            images: Vec::new(),
             bindings: vec![
                 bind([0.0, 2.0, 0.0], [0.0, 1.0, 0.0, 0.0]),
                 bind([0.0, 2.0, 0.0], [0.5, 0.5, 0.0, 0.0]),
@@ -613,5 +692,27 @@ mod tests {
         assert!(matches!(scene.pose(Some(3), 0.0), Err(PoseError::NoSuchAnimation { .. })));
         assert!(scene.pose(Some(0), f64::NAN).is_err());
         assert_eq!(scene.animations[0].time_range(), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn glob_matches_stars_and_question_marks() {
+        use super::glob_match;
+        for (p, n, want) in [
+            ("SheenChair*", "SheenChair_fabric", true),
+            ("SheenChair*", "SheenChair", true),
+            ("SheenChair*", "Plane", false),
+            ("*_wood", "SheenChair_wood", true),
+            ("*_wood", "SheenChair_wood2", false),
+            ("Crate?", "Crate1", true),
+            ("Crate?", "Crate12", false),
+            ("*a*b*", "xxaYYbzz", true),
+            ("*a*b*", "xxbYYazz", false),
+            ("", "", true),
+            ("*", "", true),
+            ("exact", "exact", true),
+            ("exact", "Exact", false),
+        ] {
+            assert_eq!(glob_match(p, n), want, "{p:?} vs {n:?}");
+        }
     }
 }

@@ -43,6 +43,9 @@ pub enum SpheresError {
         /// The metric the search would bisect on.
         metric: &'static str,
     },
+    /// A base-colour texture could not be decoded.
+    #[error("base-colour texture: {0}")]
+    Texture(#[from] penumbra_geometry::texture::TextureError),
     /// Skinning failed.
     #[error("skinning: {0}")]
     Skin(#[from] SkinError),

@@ -734,8 +734,8 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
     // nodes bound the (possibly padded) leaves: `round_to_f32` grows them as needed
     let hierarchy = built.map(|h| store_hierarchy(&h, &stored));
     let albedo = if p.albedo.is_some() || albedo::has_materials(scene) {
-        let tri = albedo::triangle_albedo(scene, p.albedo.unwrap_or([1.0; 3]))?;
-        Some(albedo::sphere_albedo(scene, &tri, &stored))
+        let surface = albedo::SurfaceAlbedo::new(scene, p.albedo.unwrap_or([1.0; 3]))?;
+        Some(albedo::sphere_albedo(scene, &surface, &stored))
     } else {
         None
     };

@@ -95,3 +95,71 @@ fn no_material_and_no_albedo_stores_nothing_and_bad_factors_are_refused() {
     let e = fit(&s, &params(2), &penumbra_math::progress::NoProgress).unwrap_err();
     assert!(e.to_string().contains("baseColorFactor"), "{e}");
 }
+
+// ---- base-colour textures ----
+
+use penumbra_geometry::texture::srgb_to_linear;
+use penumbra_spheres::albedo::SurfaceAlbedo;
+use penumbra_testkit::gltf::{glb_textured, uv_cube};
+
+fn png(w: u32, h: u32, rgb: &[u8]) -> Vec<u8> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out).write_image(rgb, w, h, image::ExtendedColorType::Rgb8).unwrap();
+    out
+}
+
+fn textured(factor: [f32; 4], image: &[u8], wrap: u32) -> penumbra_geometry::Scene {
+    let (v, t, uv) = uv_cube([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    let bytes =
+        glb_textured(Part { positions: &v, triangles: &t, base_color: Some(factor) }, &uv, image, "image/png", wrap);
+    load_gltf_bytes(Path::new("textured.glb"), &bytes, Path::new(".")).unwrap().0
+}
+
+#[test]
+fn a_uniform_texture_multiplies_the_factor_after_srgb_decoding() {
+    // 4×4 texels of sRGB (188, 100, 30): every sphere's albedo is factor × the decoded colour,
+    // not the factor alone (texture ignored) nor factor × 188/255 (no sRGB decode)
+    let c = [188u8, 100, 30];
+    let img = png(4, 4, &c.repeat(16));
+    let factor = [1.0, 0.5, 0.8, 1.0];
+    let s = textured(factor, &img, 10497);
+    assert_eq!(s.base_color_texture.len(), s.mesh.positions.len());
+    let r = fit(&s, &params(4), &penumbra_math::progress::NoProgress).unwrap();
+    let want: [f32; 3] = std::array::from_fn(|k| factor[k] * srgb_to_linear(f32::from(c[k]) / 255.0));
+    assert!((want[0] - 0.5029).abs() < 1e-3);
+    for a in r.albedo.as_ref().unwrap() {
+        for k in 0..3 {
+            assert!((a[k] - want[k]).abs() < 1e-5, "{a:?} vs {want:?}");
+        }
+    }
+}
+
+#[test]
+fn texture_albedo_is_an_area_average_that_follows_the_uvs() {
+    // 2×1 texels, white | black, clamped: each face's mean is ½ (the bilinear ramp between the
+    // texel centres is symmetric), and the footprint of a small piece reads its own half
+    let img = png(2, 1, &[255, 255, 255, 0, 0, 0]);
+    let s = textured([1.0; 4], &img, 33071);
+    let r = fit(&s, &params(1), &penumbra_math::progress::NoProgress).unwrap();
+    let a = r.albedo.unwrap()[0];
+    assert!(a.iter().all(|&x| (x - 0.5).abs() < 0.01), "{a:?}");
+    let surface = SurfaceAlbedo::new(&s, [1.0; 3]).unwrap();
+    assert!(surface.is_textured());
+    // triangle 0 has UVs (0,0), (1,0), (1,1): barycentric (u, v) is UV (u + v, v)
+    let left = surface.at(0, 0.05, 0.05, 1e-6);
+    let right = surface.at(0, 0.8, 0.1, 1e-6);
+    assert!(left.iter().all(|&x| (x - 1.0).abs() < 1e-6), "{left:?}");
+    assert!(right.iter().all(|&x| x.abs() < 1e-6), "{right:?}");
+    // the whole image as footprint (fraction 1 of a triangle covering half the UV square):
+    // between the point value and the mean, never outside [0, 1]
+    let whole = surface.at(0, 2.0 / 3.0, 1.0 / 3.0, 1.0)[0];
+    assert!((0.0..=1.0).contains(&whole));
+}
+
+#[test]
+fn an_undecodable_texture_is_an_error_naming_the_image() {
+    let s = textured([1.0; 4], b"definitely not a png", 10497);
+    let e = fit(&s, &params(2), &penumbra_math::progress::NoProgress).unwrap_err().to_string();
+    assert!(e.contains("image 0 (\"albedo\")") && e.contains("not a PNG or JPEG"), "{e}");
+}

@@ -64,6 +64,8 @@ fn two_bone_bar(shift: [f64; 3]) -> Scene {
         bindings,
         uv1: Vec::new(),
         base_color: Vec::new(),
+        base_color_texture: Vec::new(),
+        images: Vec::new(),
     }
 }
 

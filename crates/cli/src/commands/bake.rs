@@ -144,6 +144,7 @@ fn run_spheres(
     let job = super::spheres::SpheresJob {
         mesh: mesh.clone(),
         mesh_name: sp.mesh_name.clone(),
+        nodes: sp.node.as_ref().map(penumbra_config::NodeSelect::patterns).unwrap_or_default(),
         params,
         output: out_dir.join(sp.output_name()),
     };
@@ -215,6 +216,8 @@ fn run_fiv(
         f.irradiance_size.unwrap_or(32) as usize,
         f.half.unwrap_or(false),
     )?;
+    let mut job = job;
+    job.nodes = f.node.as_ref().map(penumbra_config::NodeSelect::patterns).unwrap_or_default();
     let output = out_dir.join(f.output_name());
     let key = super::fiv::cache_key(&job)?;
     cached_or_bake(&name, "FIVT", &output, &key, force, || {

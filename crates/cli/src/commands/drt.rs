@@ -120,13 +120,8 @@ fn clutter_from_file(path: &Path) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliE
                 .map_err(|e| CliError::input(anyhow!("{}: clutter[{i}]: {e}", path.display())))?;
             let scene = match &c.node {
                 None => scene,
-                Some(n) => scene.subset_by_node_name(n).ok_or_else(|| {
-                    let names: Vec<&str> = scene.nodes.iter().filter_map(|x| x.name.as_deref()).collect();
-                    CliError::input(anyhow!(
-                        "{}: clutter[{i}].node {n:?}: no triangles belong to a node of that name (nodes: {})",
-                        path.display(),
-                        names.join(", ")
-                    ))
+                Some(n) => super::spheres::select_nodes(&scene, &n.patterns()).map_err(|why| {
+                    CliError::input(anyhow!("{}: clutter[{i}].node {:?}: {why}", path.display(), n.patterns()))
                 })?,
             };
             let h = blake3::hash(&bytes).to_hex().to_string();

@@ -90,8 +90,12 @@ fn builtin_hash(name: &str) -> String {
     blake3::hash(format!("{name}@{}", env!("CARGO_PKG_VERSION")).as_bytes()).to_hex().to_string()
 }
 
-/// Loads an occluder mesh from a file or a `builtin:` name.
-pub fn load_occluder(spec: &str) -> Result<Input<TriMesh>, CliError> {
+/// Loads an occluder mesh from a file or a `builtin:` name; with `nodes` (glob patterns),
+/// only the glTF nodes matching one and their descendants.
+pub fn load_occluder(spec: &str, nodes: &[String]) -> Result<Input<TriMesh>, CliError> {
+    if !nodes.is_empty() && spec.starts_with("builtin:") {
+        return Err(CliError::input(anyhow!("--node selects glTF nodes: --mesh {spec:?} is a procedural occluder")));
+    }
     if let Some(shape) = spec.strip_prefix("builtin:") {
         let mesh = match shape {
             // a torus lying in the XZ plane: a ring shadow with a bright centre
@@ -115,6 +119,14 @@ pub fn load_occluder(spec: &str) -> Result<Input<TriMesh>, CliError> {
     let path = Path::new(spec);
     let (scene, report) =
         penumbra_geometry::load_mesh(path).with_context(|| format!("cannot load occluder mesh {}", path.display()))?;
+    let scene = if nodes.is_empty() {
+        scene
+    } else {
+        super::spheres::select_nodes(&scene, nodes).map_err(|why| {
+            let pats: Vec<String> = nodes.iter().map(|p| format!("{p:?}")).collect();
+            CliError::input(anyhow!("{}: --node {}: {why}", path.display(), pats.join(" ")))
+        })?
+    };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let (report, warnings) = mesh_report(&scene, &report, &name);
     Ok(Input { data: scene.mesh, name, blake3: hash_file(path)?, report, warnings })
@@ -217,6 +229,8 @@ pub struct FivJob {
     pub storage: Storage,
     /// The environment turned by `yaw.0/yaw.1` of a full turn about +Y (`(0, 1)`: as is).
     pub yaw: (usize, usize),
+    /// glTF node patterns selecting the occluder (`--node`; empty: the whole file).
+    pub nodes: Vec<String>,
 }
 
 impl FivJob {
@@ -247,6 +261,7 @@ impl FivJob {
             cube_size,
             storage: if half { Storage::F16 } else { Storage::F32 },
             yaw: (0, 1),
+            nodes: Vec::new(),
         })
     }
 }
@@ -278,6 +293,9 @@ pub fn cache_key(job: &FivJob) -> Result<String, CliError> {
     if job.yaw.0 != 0 {
         // absent for unturned environments, so their keys stay what they were
         v["yaw"] = json!([job.yaw.0, job.yaw.1]);
+    }
+    if !job.nodes.is_empty() {
+        v["node"] = json!(job.nodes);
     }
     Ok(blake3::hash(v.to_string().as_bytes()).to_hex().to_string())
 }
@@ -323,7 +341,7 @@ pub fn bake_many(
         }
     }
     let keys: Vec<String> = jobs.iter().map(cache_key).collect::<Result<_, _>>()?;
-    let mesh = load_occluder(&first.mesh)?;
+    let mesh = load_occluder(&first.mesh, &first.nodes)?;
     let envs: Vec<Input<CubeMap>> =
         jobs.iter().map(|j| load_env_yawed(&j.env, j.env_rotate, j.yaw, j.cube_size)).collect::<Result<_, _>>()?;
     let occ =
@@ -344,6 +362,9 @@ pub fn bake_many(
         });
         if job.yaw.0 != 0 {
             inputs["env"]["yaw_turns"] = json!([job.yaw.0, job.yaw.1]);
+        }
+        if !job.nodes.is_empty() {
+            inputs["mesh"]["node"] = json!(job.nodes);
         }
         let ai = AssetInputs {
             inputs,
@@ -426,6 +447,7 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             )
             .map(|mut j| {
                 j.yaw = (m, steps);
+                j.nodes = a.node.clone();
                 j
             })
         })

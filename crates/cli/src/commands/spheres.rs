@@ -21,6 +21,9 @@ pub struct SpheresJob {
     pub mesh: PathBuf,
     /// glTF node name filter.
     pub mesh_name: Option<String>,
+    /// glTF node name patterns (`--node`, globs); with `mesh_name`, a node matching either
+    /// is selected.
+    pub nodes: Vec<String>,
     /// Fit parameters.
     pub params: FitParams,
     /// Output asset.
@@ -78,6 +81,12 @@ fn params_json(job: &SpheresJob) -> Value {
         "per_sphere_samples": p.metrics.per_sphere_samples,
         "union_samples": p.metrics.union_samples,
     });
+    if !job.nodes.is_empty() {
+        // only when given, so the bytes of bakes without it stay as they were
+        if let Some(o) = v.as_object_mut() {
+            o.insert("node".into(), json!(job.nodes));
+        }
+    }
     // keys added later appear only when used, so that older cache keys stay valid
     if let Some(o) = v.as_object_mut() {
         if target_union.is_some() {
@@ -115,30 +124,45 @@ fn params_json(job: &SpheresJob) -> Value {
 
 /// Cache key of a job: tool version, parameters and the mesh bytes.
 pub fn cache_key(job: &SpheresJob, mesh_hash: &str) -> String {
-    // kind_version 2 stores the glTF materials' albedo: a key made before it must not match
-    let v = json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "spheres", "params": params_json(job), "mesh": mesh_hash, "kind_version": SPHR_KIND_VERSION});
+    // kind_version 2 stores the glTF materials' albedo: a key made before it must not match;
+    // albedo_model 2 reads base-colour textures (a key from before must not match either)
+    let v = json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "spheres", "params": params_json(job), "mesh": mesh_hash, "kind_version": SPHR_KIND_VERSION, "albedo_model": 2});
     blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
 }
 
-/// Loads the mesh (and the named node's part of it).
-pub fn load_scene(path: &Path, mesh_name: Option<&str>) -> Result<(Scene, ImportReport), CliError> {
+/// Loads the mesh (and, with `--mesh-name` or `--node`, the selected nodes' part of it).
+pub fn load_scene(path: &Path, mesh_name: Option<&str>, nodes: &[String]) -> Result<(Scene, ImportReport), CliError> {
     let (scene, report) = load_mesh(path).map_err(CliError::input)?;
-    let scene = match mesh_name {
-        None => scene,
-        Some(name) => scene.subset_by_node_name(name).ok_or_else(|| {
-            let names: Vec<&str> = scene.nodes.iter().filter_map(|n| n.name.as_deref()).collect();
-            CliError::input(anyhow!(
-                "{}: --mesh-name {name:?}: no triangles belong to a node of that name{}",
-                path.display(),
-                if names.is_empty() {
-                    " (the file has no named nodes)".to_string()
-                } else {
-                    format!(" (nodes: {})", names.join(", "))
-                }
-            ))
-        })?,
+    let mut patterns: Vec<String> = nodes.to_vec();
+    if let Some(n) = mesh_name {
+        patterns.push(n.to_string());
+    }
+    if patterns.is_empty() {
+        return Ok((scene, report));
+    }
+    let what = match (mesh_name, nodes.is_empty()) {
+        (Some(n), true) => format!("--mesh-name {n:?}"),
+        _ => format!("--node {}", patterns.iter().map(|p| format!("{p:?}")).collect::<Vec<_>>().join(" ")),
     };
-    Ok((scene, report))
+    let sub =
+        select_nodes(&scene, &patterns).map_err(|why| CliError::input(anyhow!("{}: {what}: {why}", path.display())))?;
+    Ok((sub, report))
+}
+
+/// The part of `scene` under the nodes matching `patterns`, or the message saying why there is
+/// none (listing the file's node names).
+pub fn select_nodes(scene: &Scene, patterns: &[String]) -> Result<Scene, String> {
+    scene.subset_by_nodes(patterns).ok_or_else(|| {
+        let names = scene.node_names();
+        format!(
+            "no triangles belong to a matching node or its descendants{}",
+            if names.is_empty() {
+                " (the file has no named nodes)".to_string()
+            } else {
+                format!(" (nodes: {})", names.join(", "))
+            }
+        )
+    })
 }
 
 fn strip_seconds(v: &mut Value) {
@@ -208,6 +232,7 @@ fn result_json(r: &FitResult, import: &ImportReport, scene: &Scene) -> Value {
                 std::array::from_fn(|c| al.iter().map(|a| f64::from(a[c])).sum::<f64>() / al.len().max(1) as f64);
             o.insert("albedo_mean".into(), json!(mean));
             o.insert("albedo_from_materials".into(), json!(penumbra_spheres::albedo::has_materials(scene)));
+            o.insert("albedo_texture_images".into(), json!(penumbra_spheres::albedo::texture_images(scene)));
         }
         if let Some(pad) = &r.skin_padding {
             let max = pad.iter().copied().fold(0.0, f64::max);
@@ -225,7 +250,7 @@ pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, C
     let bytes_in = std::fs::read(&job.mesh).with_context(|| format!("cannot read {}", job.mesh.display()))?;
     let mesh_hash = blake3::hash(&bytes_in).to_hex().to_string();
     drop(bytes_in);
-    let (scene, import) = load_scene(&job.mesh, job.mesh_name.as_deref())?;
+    let (scene, import) = load_scene(&job.mesh, job.mesh_name.as_deref(), &job.nodes)?;
     let reporter = Reporter::new("spheres", mode);
     let r = penumbra_spheres::fit(&scene, &job.params, &reporter)
         .map_err(|e| CliError::input(anyhow!("{}: {e}", job.mesh.display())))?;
@@ -247,7 +272,7 @@ pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, C
             "bounding": "every mesh vertex, every surface subdivision point and every interior grid point lies inside at least one sphere, evaluated in f64 from the stored f32 values",
             "hierarchy": "levels from the root; hierarchy_children (first, count) index the next level, or `spheres` for the last level",
             "skin": "P' = sum_b w_b * G_b(t) * G_b(rest)^-1 * P (G: global transform of glTF node skin_nodes[b]); radius unchanged",
-            "albedo": "per sphere, linear RGB in [0, 1]: area-weighted mean of the glTF baseColorFactor (or --albedo) of the surface whose sub-triangle centroids the sphere holds most deeply (smallest |p - c| / r)",
+            "albedo": "per sphere, linear RGB in [0, 1]: area-weighted mean of the glTF baseColorFactor (or --albedo) times the sRGB-decoded baseColorTexture, if any, over the surface whose sub-triangle centroids the sphere holds most deeply (smallest |p - c| / r)",
         },
         "params": params_json(job),
         "input": {
@@ -305,7 +330,7 @@ pub fn job_from_args(a: &SpheresFitArgs) -> Result<SpheresJob, CliError> {
     params.albedo = a.albedo.as_deref().map(parse_albedo).transpose()?;
     params.metrics.seed = a.seed;
     params.validate().map_err(CliError::input)?;
-    Ok(SpheresJob { mesh, mesh_name: a.mesh_name.clone(), params, output })
+    Ok(SpheresJob { mesh, mesh_name: a.mesh_name.clone(), nodes: a.node.clone(), params, output })
 }
 
 /// Parses `--albedo R,G,B` or `--albedo A` (each in [0, 1]).

@@ -104,6 +104,7 @@ pub fn run(a: &SweepShadowsArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
         let job = SpheresJob {
             mesh: a.mesh.clone(),
             mesh_name: None,
+            nodes: Vec::new(),
             params,
             output: a.output.join(format!("spheres-{n}.sphr")),
         };

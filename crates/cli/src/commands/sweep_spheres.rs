@@ -90,6 +90,7 @@ pub fn run(a: &SweepSpheresArgs, mode: ProgressMode) -> Result<ExitCode, CliErro
                 let job = SpheresJob {
                     mesh: a.mesh.clone(),
                     mesh_name: None,
+                    nodes: Vec::new(),
                     params,
                     output: a.output.join(format!("{}-g{g}-{n}.sphr", method_name(m))),
                 };

@@ -11,7 +11,14 @@
 //! Validation (beyond the gltf crate's reference checks): accessor bounds, strides and types,
 //! equal attribute counts, index ranges, finite positions and matrices, joint indices, skin
 //! weights (renormalised when they do not sum to 1), strictly increasing key times, and an
-//! acyclic single-parent node hierarchy. Images are never loaded; remote URIs are refused.
+//! acyclic single-parent node hierarchy. Remote URIs are refused.
+//!
+//! Materials: each vertex keeps its primitive's `baseColorFactor` and, when the material has a
+//! `baseColorTexture`, the texture (image, wrap modes) and the vertex's UV in the texture's
+//! `TEXCOORD_n` set. The images those textures use are read as encoded bytes (a missing or
+//! unreadable image is recorded with its reason, not an import error: geometry never needs
+//! it) and decoded on demand by [`crate::texture::MipChain::decode`]. `KHR_texture_transform`
+//! (offset, rotation, scale, texCoord override) is applied to those UVs.
 
 use std::path::Path;
 
@@ -26,6 +33,7 @@ use crate::mesh::TriMesh;
 use crate::scene::{
     AnimProperty, Animation, Channel, Interpolation, Node, Sampler, Scene, Skin, Trs, VertexBinding, VertexSkin,
 };
+use crate::texture::{BaseColorTexture, SceneImage, Wrap};
 
 /// Extensions that change how geometry is stored or instanced; a file that *requires* one of
 /// them cannot be imported correctly, so it is rejected.
@@ -83,6 +91,8 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
         bindings: Vec::new(),
         uv1: Vec::new(),
         base_color: Vec::new(),
+        base_color_texture: Vec::new(),
+        images: Vec::new(),
     };
     let rest = scene_shell.global_transforms(None, 0.0).map_err(|e| data(e.to_string()))?;
     let rest: Vec<DMat4> = rest.iter().map(DMat4::from_cols_array_2d).collect();
@@ -122,6 +132,8 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
     let mut triangle_primitives = 0usize;
     // material baseColorFactor per vertex (`None`: no material); dropped if no primitive has one
     let mut base_color: Vec<Option<[f64; 4]>> = Vec::new();
+    // baseColorTexture and the vertex's UV in its set, per vertex; dropped if no primitive has one
+    let mut base_color_texture: Vec<Option<(BaseColorTexture, [f64; 2])>> = Vec::new();
     let mut morph_warned = false;
     for &(node_index, mesh_index) in &instances {
         let gmesh = doc.meshes().nth(mesh_index).ok_or_else(|| data(format!("mesh {mesh_index} does not exist")))?;
@@ -210,22 +222,7 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
             };
             match (prim.get(&gltf::Semantic::TexCoords(1)), uv1.as_mut()) {
                 (Some(a), Some(out)) => {
-                    // glTF 2.0 §3.7.2.1: TEXCOORD_n is float, or normalized unsigned byte/short
-                    let ok = a.dimensions() == Dimensions::Vec2
-                        && (a.data_type() == DataType::F32
-                            || (a.normalized() && matches!(a.data_type(), DataType::U8 | DataType::U16)));
-                    if !ok {
-                        return Err(data(format!(
-                            "{label}: TEXCOORD_1 accessor must be Vec2 F32 or normalized U8/U16, found {}",
-                            type_name(a.data_type(), a.dimensions(), a.normalized())
-                        )));
-                    }
-                    let d = read_accessor(&a, &mut store, &format!("{label} TEXCOORD_1")).map_err(data)?;
-                    check_finite(&d, &format!("{label} TEXCOORD_1")).map_err(data)?;
-                    out.extend((0..vcount).map(|v| {
-                        let e = d.element(v);
-                        [e[0], e[1]]
-                    }));
+                    out.extend(read_uv(&a, 1, &mut store, &label).map_err(data)?);
                 }
                 (None, Some(_)) => {
                     if triangle_primitives > 0 {
@@ -247,6 +244,43 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
                 f.map(f64::from)
             });
             base_color.extend(std::iter::repeat_n(factor, vcount));
+            let texture = match prim.material().pbr_metallic_roughness().base_color_texture() {
+                Some(info) if prim.material().index().is_some() => {
+                    let transform = info.texture_transform();
+                    let set = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+                    match prim.get(&gltf::Semantic::TexCoords(set)) {
+                        Some(a) => {
+                            let sampler = info.texture().sampler();
+                            let tex = BaseColorTexture {
+                                image: info.texture().source().index() as u32,
+                                wrap_s: wrap(sampler.wrap_s()),
+                                wrap_t: wrap(sampler.wrap_t()),
+                            };
+                            let mut uvs = read_uv(&a, set, &mut store, &label).map_err(data)?;
+                            if let Some(t) = transform {
+                                let m = uv_transform(t.offset(), t.rotation(), t.scale());
+                                check_finite_uv(&m).map_err(|e| data(format!("{label}: KHR_texture_transform {e}")))?;
+                                for uv in &mut uvs {
+                                    *uv = apply_uv(&m, *uv);
+                                }
+                            }
+                            Some((tex, uvs))
+                        }
+                        None => {
+                            report.warnings.push(format!(
+                                "{label}: its material's baseColorTexture reads TEXCOORD_{set}, which the primitive \
+                                 does not have; the texture is ignored"
+                            ));
+                            None
+                        }
+                    }
+                }
+                _ => None,
+            };
+            match texture {
+                Some((tex, uvs)) => base_color_texture.extend(uvs.into_iter().map(|uv| Some((tex, uv)))),
+                None => base_color_texture.extend(std::iter::repeat_n(None, vcount)),
+            }
             for v in 0..vcount {
                 let e = pos.element(v);
                 let local = [e[0], e[1], e[2]];
@@ -311,7 +345,91 @@ pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Sc
     if base_color.iter().all(Option::is_none) {
         base_color.clear();
     }
-    Ok((Scene { mesh: clean, bindings, uv1: uv1.unwrap_or_default(), base_color, ..scene_shell }, report))
+    if base_color_texture.iter().all(Option::is_none) {
+        base_color_texture.clear();
+    }
+    // the images the base-colour textures use, as encoded bytes (others stay empty)
+    let mut used = vec![false; doc.images().len()];
+    for (t, _) in base_color_texture.iter().flatten() {
+        if let Some(u) = used.get_mut(t.image as usize) {
+            *u = true;
+        }
+    }
+    let images = doc
+        .images()
+        .map(|im| {
+            let name = im.name().map(|n| format!(" ({n:?})")).unwrap_or_default();
+            let label = format!("image {}{name}", im.index());
+            let bytes = if used[im.index()] {
+                store.image_bytes(&im)
+            } else {
+                Err("not used by any baseColorTexture, not read".to_string())
+            };
+            SceneImage { label, bytes }
+        })
+        .collect();
+    let scene = Scene {
+        mesh: clean,
+        bindings,
+        uv1: uv1.unwrap_or_default(),
+        base_color,
+        base_color_texture,
+        images,
+        ..scene_shell
+    };
+    Ok((scene, report))
+}
+
+/// Reads `TEXCOORD_{set}` (glTF 2.0 §3.7.2.1: Vec2 float, or normalized unsigned byte/short).
+fn read_uv(
+    a: &gltf::Accessor<'_>,
+    set: u32,
+    store: &mut BufferStore<'_>,
+    label: &str,
+) -> Result<Vec<[f64; 2]>, String> {
+    let ok = a.dimensions() == Dimensions::Vec2
+        && (a.data_type() == DataType::F32
+            || (a.normalized() && matches!(a.data_type(), DataType::U8 | DataType::U16)));
+    if !ok {
+        return Err(format!(
+            "{label}: TEXCOORD_{set} accessor must be Vec2 F32 or normalized U8/U16, found {}",
+            type_name(a.data_type(), a.dimensions(), a.normalized())
+        ));
+    }
+    let d = read_accessor(a, store, &format!("{label} TEXCOORD_{set}"))?;
+    check_finite(&d, &format!("{label} TEXCOORD_{set}"))?;
+    Ok((0..d.count)
+        .map(|v| {
+            let e = d.element(v);
+            [e[0], e[1]]
+        })
+        .collect())
+}
+
+/// KHR_texture_transform's affine UV map `T·R·S` as `[[a, b, tx], [c, d, ty]]` (the
+/// extension's GLSL: `rotation = mat3(cos, sin, 0, −sin, cos, 0, 0, 0, 1)` column-major, so
+/// `u' = tx + cos·sx·u − sin·sy·v`, `v' = ty + sin·sx·u + cos·sy·v`).
+fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> [[f64; 3]; 2] {
+    let (s, c) = f64::from(rotation).sin_cos();
+    let (sx, sy) = (f64::from(scale[0]), f64::from(scale[1]));
+    [[c * sx, -s * sy, f64::from(offset[0])], [s * sx, c * sy, f64::from(offset[1])]]
+}
+
+fn check_finite_uv(m: &[[f64; 3]; 2]) -> Result<(), String> {
+    if m.iter().flatten().all(|x| x.is_finite()) { Ok(()) } else { Err("has a non-finite value".into()) }
+}
+
+fn apply_uv(m: &[[f64; 3]; 2], uv: [f64; 2]) -> [f64; 2] {
+    [m[0][0] * uv[0] + m[0][1] * uv[1] + m[0][2], m[1][0] * uv[0] + m[1][1] * uv[1] + m[1][2]]
+}
+
+/// The sampler's wrap mode.
+fn wrap(m: gltf::texture::WrappingMode) -> Wrap {
+    match m {
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+    }
 }
 
 /// The gltf crate's reference validation, except that required extensions it does not
@@ -712,6 +830,21 @@ fn read_animations(doc: &gltf::Document, store: &mut BufferStore<'_>) -> Result<
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn texture_transform_is_translation_rotation_scale() {
+        // scale (2, 1), a quarter turn, offset (0.5, 0): (1, 0) → (2, 0) → (0, 2) → (0.5, 2)
+        let m = super::uv_transform([0.5, 0.0], std::f32::consts::FRAC_PI_2, [2.0, 1.0]);
+        let p = super::apply_uv(&m, [1.0, 0.0]);
+        assert!((p[0] - 0.5).abs() < 1e-6 && (p[1] - 2.0).abs() < 1e-6, "{p:?}");
+        // (0, 1) → (0, 1) → (−1, 0) → (−0.5, 0)
+        let q = super::apply_uv(&m, [0.0, 1.0]);
+        assert!((q[0] + 0.5).abs() < 1e-6 && q[1].abs() < 1e-6, "{q:?}");
+        // identity
+        let id = super::uv_transform([0.0, 0.0], 0.0, [1.0, 1.0]);
+        assert_eq!(super::apply_uv(&id, [0.3, 0.7]), [0.3, 0.7]);
+    }
+
     use super::*;
 
     #[test]

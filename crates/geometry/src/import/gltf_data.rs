@@ -60,22 +60,48 @@ impl<'a> BufferStore<'a> {
     }
 
     fn load_uri(&self, index: usize, uri: &str) -> Result<Vec<u8>, String> {
+        self.read_uri(&format!("buffer {index}"), uri)
+    }
+
+    /// The bytes of a base64 `data:` URI or of a file relative to the glTF file; `what`
+    /// prefixes the messages.
+    fn read_uri(&self, what: &str, uri: &str) -> Result<Vec<u8>, String> {
         if let Some(rest) = uri.strip_prefix("data:") {
             let (header, payload) =
-                rest.split_once(',').ok_or_else(|| format!("buffer {index}: malformed data URI (no ',')"))?;
+                rest.split_once(',').ok_or_else(|| format!("{what}: malformed data URI (no ',')"))?;
             if !header.ends_with(";base64") {
-                return Err(format!("buffer {index}: only base64 data URIs are supported"));
+                return Err(format!("{what}: only base64 data URIs are supported"));
             }
-            return decode_base64(payload).map_err(|e| format!("buffer {index}: data URI: {e}"));
+            return decode_base64(payload).map_err(|e| format!("{what}: data URI: {e}"));
         }
         if has_scheme(uri) {
             return Err(format!(
-                "buffer {index}: URI {uri:?} is not a relative file path or data URI (remote resources are not fetched)"
+                "{what}: URI {uri:?} is not a relative file path or data URI (remote resources are not fetched)"
             ));
         }
         let rel = percent_decode(uri);
         let file = self.base_dir.join(&rel);
-        std::fs::read(&file).map_err(|e| format!("buffer {index}: cannot read {}: {e}", file.display()))
+        std::fs::read(&file).map_err(|e| format!("{what}: cannot read {}: {e}", file.display()))
+    }
+
+    /// The encoded bytes of a glTF image: its buffer view's range, or its URI's content.
+    pub(crate) fn image_bytes(&mut self, image: &gltf::Image<'_>) -> Result<Vec<u8>, String> {
+        let what = format!("image {}", image.index());
+        match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let (start, len) = (view.offset(), view.length());
+                let buf = self.get(view.buffer().index()).map_err(|e| format!("{what}: {e}"))?;
+                let end = start.checked_add(len).filter(|&e| e <= buf.len()).ok_or_else(|| {
+                    format!(
+                        "{what}: buffer view {} (bytes {start}..{start}+{len}) exceeds its buffer ({} bytes)",
+                        view.index(),
+                        buf.len()
+                    )
+                })?;
+                Ok(buf[start..end].to_vec())
+            }
+            gltf::image::Source::Uri { uri, .. } => self.read_uri(&what, uri),
+        }
     }
 }
 
