@@ -22,6 +22,28 @@ fn corpus_v1_still_loads() {
                 a.require_known(penumbra_sh::tables_asset::SHTB_SECTIONS).unwrap();
                 let t = ShTables::from_asset(&a).unwrap();
                 assert_eq!(t.order() as u64, meta["params"]["order"].as_u64().unwrap());
+                // kind_version 1 has no proxy_log_knots; 2 has them (possibly none), and the
+                // runtime reads each knot's row back at its α
+                let kv = meta["kind_version"].as_u64().unwrap();
+                assert!(kv == 1 || kv == 2, "SHTB kind_version {kv}");
+                assert_eq!(a.section("proxy_log_knots").is_some(), kv == 2);
+                if kv == 2 {
+                    let alphas = meta["metrics"]["proxy_log_knot_alphas"].as_array().unwrap();
+                    assert_eq!(t.proxy_log_knot_count(), alphas.len());
+                    let rows = a.section("proxy_log_knots").unwrap().as_f32().unwrap();
+                    let n = t.order();
+                    let mut got = vec![0.0f32; n];
+                    for r in rows.chunks_exact(n + 1) {
+                        if r[0] < t.alpha_top() || r[0] >= penumbra_runtime::NEAR_CONTACT_ALPHA {
+                            continue;
+                        }
+                        t.proxy_log(r[0], &mut got);
+                        let norm = r[1..].iter().map(|v| v * v).sum::<f32>().sqrt();
+                        for (g, w) in got.iter().zip(&r[1..]) {
+                            assert!((g - w).abs() <= 1e-4 * norm, "knot at {}: {got:?} vs {:?}", r[0], &r[1..]);
+                        }
+                    }
+                }
                 // Invariants that hold for every SHTB: no blocker, no log; Γ gives 1*f = f.
                 let mut z = vec![1.0f32; t.order()];
                 t.cap_log(0.0, &mut z);

@@ -150,56 +150,88 @@ fn many_small_far_blockers_keep_their_shadow() {
     }
 }
 
+/// Worst relative error of the runtime's proxy log against the f64 eigen log of the cap, per
+/// region (below the clamp's ramp top, the α table, near contact), with the α of each.
+fn proxy_log_worst(order: usize, t: &ShTables, samples: &[f64]) -> ([f64; 3], [f64; 3]) {
+    let gamma = TripleProduct::new(order);
+    let mut worst = [0.0f64; 3];
+    let mut at = [0.0f64; 3];
+    let mut row = vec![0.0f32; order];
+    for &alpha in samples {
+        let th = alpha.asin();
+        let want: Vec<f64> = penumbra_sh::log::log_eigen_zonal_occlusion(
+            &gamma,
+            &penumbra_sh::zonal::cap_indicator(order, th),
+            penumbra_sh::log::EPS_REL,
+        )
+        .iter()
+        .enumerate()
+        .map(|(l, v)| v * penumbra_math::sh::zh_star_scale(l))
+        .collect();
+        t.proxy_log(alpha as f32, &mut row);
+        let d = row.iter().zip(&want).map(|(a, b)| (*a as f64 - b).powi(2)).sum::<f64>().sqrt();
+        let rel = d / want.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let region = if (alpha as f32) < t.alpha_top() {
+            0
+        } else if (alpha as f32) < penumbra_runtime::NEAR_CONTACT_ALPHA {
+            1
+        } else {
+            2
+        };
+        if rel > worst[region] {
+            worst[region] = rel;
+            at[region] = alpha;
+        }
+    }
+    (worst, at)
+}
+
 #[test]
 fn proxy_log_is_accurate_from_far_field_to_contact() {
-    // ≤ 0.5 % of the row's norm against the f64 eigen log of the cap, over the whole α range:
-    // below the smooth clamp (small-cap continuation), in the table, and near α = 1 (θ-grid).
-    for order in [4usize, 8] {
-        let (_, bytes) = tables(order);
+    // ≤ 0.5 % of the row's norm against the f64 eigen log of the cap, over the whole α range
+    // and every order: below the smooth clamp (small-cap continuation), in the table (with
+    // its cells split at the kinks the bake stores in `proxy_log_knots`), and near α = 1
+    // (θ-grid). The same bake without its knots (the runtime as it read SHTB v1) misses it
+    // at order 8, where the kink of the log's eigenvalue clipping sits inside a cell.
+    let mut table = Vec::new();
+    for order in 2..=8usize {
+        let (mut baked, bytes) = tables(order);
         let owned = OwnedAsset::parse(&bytes).unwrap();
         let t = ShTables::from_asset(&owned.asset()).unwrap();
-        let gamma = TripleProduct::new(order);
-        let mut worst = [0.0f64; 3];
-        let mut at = [0.0f64; 3];
-        let mut row = vec![0.0f32; order];
-        // 2000 even samples plus 600 across the order-8 bend (α 0.40–0.43, where the log's
-        // eigenvalue clipping engages)
-        let samples = (1..=2000).map(|k| k as f64 / 2000.0).chain((0..600).map(|k| 0.40 + 0.03 * k as f64 / 600.0));
-        for alpha in samples {
-            let alpha = if alpha >= 1.0 { 0.99999 } else { alpha };
-            let th = alpha.asin();
-            let want: Vec<f64> = penumbra_sh::log::log_eigen_zonal_occlusion(
-                &gamma,
-                &penumbra_sh::zonal::cap_indicator(order, th),
-                penumbra_sh::log::EPS_REL,
-            )
-            .iter()
-            .enumerate()
-            .map(|(l, v)| v * penumbra_math::sh::zh_star_scale(l))
+        assert_eq!(t.proxy_log_knot_count(), baked.proxy_log_knots.len());
+        // 2000 even samples, 600 across the order-8 bend (α 0.40–0.43), and 200 within two
+        // cells of every stored knot
+        let mut samples: Vec<f64> = (1..=2000)
+            .map(|k| (k as f64 / 2000.0).min(0.99999))
+            .chain((0..600).map(|k| 0.40 + 0.03 * k as f64 / 600.0))
             .collect();
-            t.proxy_log(alpha as f32, &mut row);
-            let d = row.iter().zip(&want).map(|(a, b)| (*a as f64 - b).powi(2)).sum::<f64>().sqrt();
-            let rel = d / want.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let region = if (alpha as f32) < t.alpha_top() {
-                0
-            } else if (alpha as f32) < penumbra_runtime::NEAR_CONTACT_ALPHA {
-                1
-            } else {
-                2
-            };
-            if rel > worst[region] {
-                worst[region] = rel;
-                at[region] = alpha;
-            }
+        for kn in &baked.proxy_log_knots {
+            samples.extend((0..200).map(|k| kn.alpha + (k as f64 / 100.0 - 1.0) * 2.0 / 255.0));
         }
-        eprintln!("order {order}: worst rel error below clamp / table / near contact: {worst:?} at α = {at:?}");
-        // ≤ 0.5 % below the clamp and near contact at every order, and in the uniform-α table
-        // at order 4 (linear). At order 8 the table is read by Catmull–Rom: 0.56 % at
-        // α ≈ 0.415, where the log's eigenvalue clipping engages (a kink inside one cell; linear
-        // was 0.78–0.84 % there, 0.60 % at α ≈ 0.0255); recorded in docs/tables.md
-        assert!(worst[0] <= 0.005 && worst[2] <= 0.005, "order {order}: {worst:?} at α = {at:?}");
-        assert!(worst[1] <= if order <= 4 { 0.005 } else { 0.0057 }, "order {order}: {worst:?} at α = {at:?}");
+        samples.retain(|a| *a > 0.0 && *a < 1.0);
+        let (worst, at) = proxy_log_worst(order, &t, &samples);
+        let knots: Vec<String> = baked.proxy_log_knots.iter().map(|k| format!("{:.5}", k.alpha)).collect();
+        eprintln!(
+            "order {order}: worst rel error below clamp / table / near contact: {:?} at α = {at:.4?}; knots at α = [{}]",
+            worst.map(|x| format!("{x:.2e}")),
+            knots.join(", ")
+        );
+        table.push((order, worst, at));
+        assert!(worst.iter().all(|&w| w <= 0.005), "order {order}: {worst:?} at α = {at:?}");
+        if order == 8 {
+            baked.proxy_log_knots.clear();
+            let bytes = to_asset(&baked, None).unwrap().to_bytes().unwrap();
+            let owned = OwnedAsset::parse(&bytes).unwrap();
+            let t = ShTables::from_asset(&owned.asset()).unwrap();
+            assert_eq!(t.proxy_log_knot_count(), 0);
+            let (without, at) = proxy_log_worst(order, &t, &samples);
+            eprintln!("order 8 without knots: {:?} at α = {at:.4?}", without.map(|x| format!("{x:.2e}")));
+            assert!(without[1] > 0.005, "the kink is not where the test looks: {without:?}");
+        }
     }
+    let (order, worst, at) =
+        table.iter().map(|(o, w, a)| (*o, w[1], a[1])).fold((0, 0.0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+    eprintln!("worst in the table over orders 2–8: {worst:.2e} (order {order}, α = {at:.4})");
 }
 
 #[test]

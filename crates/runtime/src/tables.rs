@@ -1,6 +1,7 @@
 //! [`ShTables`]: a validated, zero-copy view of an `SHTB` asset.
 
 use crate::error::RuntimeError;
+use crate::proxy_knots::{Grid, IN_CELL, ProxyKnots};
 pub use crate::sh::MAX_ORDER;
 use crate::sh::ShBasis;
 use penumbra_asset::{Asset, DType};
@@ -95,6 +96,8 @@ pub struct ShTables<'a> {
     gamma_square: Vec<(u8, u8, u8, f32)>,
     /// Where the blocker log leaves the tables (see [`ShTables::proxy_log`]).
     far: FarField,
+    /// Kinks of `proxy_log_occlusion` (SHTB v2 `proxy_log_knots`; none in v1 assets).
+    knots: ProxyKnots,
     cap_log: &'a [f32],
     cap_visibility: &'a [f32],
     proxy_log_occlusion: &'a [f32],
@@ -174,9 +177,17 @@ impl<'a> ShTables<'a> {
             .collect();
         let plo = f32s(asset, "proxy_log_occlusion", &[k, order])?;
         let far = FarField::new(plo, order, k, eta[0]);
+        let knots = match asset.section("proxy_log_knots") {
+            None => ProxyKnots::default(),
+            Some(s) => {
+                let p = s.dims().first().copied().unwrap_or(0);
+                ProxyKnots::new(f32s(asset, "proxy_log_knots", &[p, order + 1])?, order, k)?
+            }
+        };
         Ok(Self {
             gamma_square,
             far,
+            knots,
             order,
             k,
             gamma_index,
@@ -346,7 +357,13 @@ impl<'a> ShTables<'a> {
     ///   `α_top`, the quadratic through rows `i … i+2`): at order 8 the rows bend sharply just below the α where
     ///   the log's eigenvalue clipping engages (α ≈ 0.415 at K = 256), where linear
     ///   interpolation is 0.78 % off and Catmull–Rom 0.48 % (docs/tables.md). Order ≤ 5 stays
-    ///   linear (≤ 0.31 % already; the cubic reads twice the rows).
+    ///   linear (the cubic reads twice the rows). Where the clipping itself engages, the row
+    ///   has a kink inside a cell; an SHTB v2 stores the exact row there (`proxy_log_knots`)
+    ///   and a cell holding a knot is split at it, each side read by Lagrange interpolation
+    ///   over the nodes on its own side (the cell's node, the knot and the next node
+    ///   outwards); from order [`CUBIC_MIN_ORDER`] up the cells next to it, whose cubic
+    ///   stencils would reach across the kink, take the knot as their outer node instead
+    ///   (see `proxy_knots.rs`).
     /// - below `α_top`: the small-cap log, continuous with the table at `α_top`:
     ///   `−o*_l(α)·(1 + (ρ_l − 1)·u/u_top)`, `o*_l` the cap's exact starred occlusion as a
     ///   polynomial in `u = 1 − cos θ` (no cancellation in f32), `ρ_l` the table's ratio of
@@ -362,6 +379,10 @@ impl<'a> ShTables<'a> {
             let t = alpha.asin() * core::f32::consts::FRAC_2_PI * (k - 1) as f32;
             let i = (t as usize).min(k - 2);
             let w = t - i as f32;
+            // a kink of the log inside this θ cell (stored at its α): split the cell there
+            if self.knots.theta_flags(i) & IN_CELL != 0 {
+                return self.knots.interpolate::<N>(Grid::Theta, self.cap_log, i, w, 0, 2);
+            }
             let rows = &self.cap_log[i * N..(i + 2) * N];
             return core::array::from_fn(|l| rows[l] * (1.0 - w) + rows[N + l] * w);
         }
@@ -370,6 +391,12 @@ impl<'a> ShTables<'a> {
             let t = alpha * (k - 1) as f32;
             let i = (t as usize).min(k - 2);
             let w = t - i as f32;
+            // a kink of the log (SHTB v2 `proxy_log_knots`) in this cell, or, for the cubic
+            // orders whose stencil reaches into the next cells, next to it: one-sided nodes
+            let flags = self.knots.flags(i);
+            if flags != 0 && (N >= CUBIC_MIN_ORDER || flags & IN_CELL != 0) {
+                return self.knots.interpolate::<N>(Grid::Alpha, self.proxy_log_occlusion, i, w, self.far.top_row, 2);
+            }
             // order ≥ 6: Catmull–Rom over rows i−1 … i+2 when all four are unramped (row i−1
             // at or above α_top's row) and inside the table; in the first unramped cell the
             // quadratic through rows i … i+2; linear otherwise
@@ -426,6 +453,12 @@ impl<'a> ShTables<'a> {
             7 => go!(7),
             _ => go!(8),
         }
+    }
+
+    /// Number of kinks of the proxy log stored with the table (SHTB v2 `proxy_log_knots`;
+    /// 0 for v1 assets), which [`ShTables::proxy_log`] splits its cells at.
+    pub fn proxy_log_knot_count(&self) -> usize {
+        self.knots.len()
     }
 
     /// The top of the smooth-clamp ramp in α: below it [`ShTables::proxy_log`] uses the

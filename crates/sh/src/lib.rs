@@ -12,6 +12,7 @@ pub mod log;
 /// The quadratic-SH → OHLSH map lives in `penumbra-math` (shared with the MRT bake).
 pub use penumbra_math::ohlsh;
 pub mod ol;
+pub mod proxy_knots;
 pub mod reference;
 pub mod tables;
 pub mod tables_asset;

@@ -177,6 +177,38 @@ pub fn log_eigen_zonal_occlusion(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64
 pub fn log_eigen_zonal_occlusion_with(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64, form: LogForm) -> Vec<f64> {
     let n = t.order();
     let gm1: Vec<f64> = occ_zh.iter().map(|v| -v).collect();
+    let (eigs, eps) = zonal_blocks(t, &gm1, eps_rel);
+    let mut f = vec![0.0; n];
+    apply_log(&eigs[0], &gm1, eps, form, &mut f);
+    f
+}
+
+/// Where the zonal eigen log stands with respect to its clipping (SHEXP eq. 32), for the
+/// zonal occlusion `occ_zh`: `(c, m)` with `c` the number of eigenvalues of the `m = 0` block
+/// (the only one the log reads) below `ε = max(eps_rel·λmax, EPS_FLOOR)`, and `m` the block
+/// that holds `λmax` when `c > 0` (else 0). The log is a smooth function of the cap angle
+/// wherever this state is constant; where it changes, the log has a kink (slope
+/// discontinuity): an eigenvalue starts or stops being clipped, or, with one clipped, the
+/// largest eigenvalue that ε follows moves to another block.
+pub fn zonal_clip_state(t: &TripleProduct, occ_zh: &[f64], eps_rel: f64) -> (usize, usize) {
+    let gm1: Vec<f64> = occ_zh.iter().map(|v| -v).collect();
+    let (eigs, eps) = zonal_blocks(t, &gm1, eps_rel);
+    let clipped = eigs[0].values.iter().filter(|&&mu| 1.0 + mu < eps).count();
+    if clipped == 0 {
+        return (0, 0);
+    }
+    let mut arg = 0;
+    for (m, e) in eigs.iter().enumerate() {
+        if e.max_value() > eigs[arg].max_value() {
+            arg = m;
+        }
+    }
+    (clipped, arg)
+}
+
+/// The per-`m` eigendecompositions of the zonal `M_{g−1}` (`gm1` = `g − 1`) and the clip ε.
+fn zonal_blocks(t: &TripleProduct, gm1: &[f64], eps_rel: f64) -> (Vec<SymEigen>, f64) {
+    let n = t.order();
     // blocks[m] is (n−m)×(n−m), rows/cols indexed by l − m.
     let mut blocks: Vec<Vec<f64>> = (0..n).map(|m| vec![0.0; (n - m) * (n - m)]).collect();
     for e in t.entries() {
@@ -196,7 +228,5 @@ pub fn log_eigen_zonal_occlusion_with(t: &TripleProduct, occ_zh: &[f64], eps_rel
     let eigs: Vec<SymEigen> = blocks.iter().enumerate().map(|(m, b)| SymEigen::new(b, n - m)).collect();
     let mu_max = eigs.iter().map(|e| e.max_value()).fold(f64::MIN, f64::max);
     let eps = (eps_rel * (1.0 + mu_max)).max(EPS_FLOOR);
-    let mut f = vec![0.0; n];
-    apply_log(&eigs[0], &gm1, eps, form, &mut f);
-    f
+    (eigs, eps)
 }

@@ -19,6 +19,7 @@ use crate::local_light::{LobeFit, fit_lobe, local_light};
 use crate::log::{EPS_REL, LogForm, log_eigen_zonal, log_eigen_zonal_occlusion_with, log_naive_zonal, naive_eps_zonal};
 use crate::ohlsh::quadratic_to_ohlsh;
 use crate::ol::{OlTable, cap_accurate_norm, cap_ol_sample};
+use crate::proxy_knots::{ProxyKnot, proxy_log_knots};
 use crate::zonal::{cap_indicator, cap_visibility, cosine_window};
 use core::f64::consts::PI;
 use penumbra_math::sh::{ShEval, zh_star_scale};
@@ -38,8 +39,8 @@ pub const LOCAL_LIGHT_THETA: usize = 32;
 pub const LOCAL_LIGHT_PHI: usize = 64;
 /// Order of the indirect operators (IBPA §5 uses order 3).
 pub const INDIRECT_ORDER: usize = 3;
-/// Kind version of the SHTB asset written by this crate.
-pub const SHTB_KIND_VERSION: u32 = 1;
+/// Kind version of the SHTB asset written by this crate (2: `proxy_log_knots`; 1 still loads).
+pub const SHTB_KIND_VERSION: u32 = 2;
 
 /// Errors of the tables bake.
 #[derive(Debug, thiserror::Error)]
@@ -190,6 +191,9 @@ pub struct TablesMetrics {
     pub local_light_fit_mean_rel_error: f64,
     /// Log samples at 22.5°, 45°, 67.5°, 90°.
     pub cap_log_samples: Vec<CapLogSample>,
+    /// α of every kink of the proxy log stored in `proxy_log_knots` (where the log's
+    /// eigenvalue clipping engages or releases inside a grid cell).
+    pub proxy_log_knot_alphas: Vec<f64>,
 }
 
 /// Fit errors of D₁ and D₂.
@@ -230,6 +234,9 @@ pub struct TablesBake {
     pub proxy_visibility: Vec<Vec<f64>>,
     /// Starred proxy log-occlusion `O^log(α)` with smooth clamp at `1/η_shadow` `[K][n]`.
     pub proxy_log_occlusion: Vec<Vec<f64>>,
+    /// Kinks of `proxy_log_occlusion` inside unramped grid cells, with their exact rows
+    /// (see [`crate::proxy_knots`]).
+    pub proxy_log_knots: Vec<ProxyKnot>,
     /// η values.
     pub eta_shadow: Eta,
     /// Delta-light η.
@@ -373,6 +380,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         proxy.iter().zip(&w_ind).map(|((v, _), w)| v.iter().map(|x| x * w).collect()).collect();
     let proxy_log_occlusion: Vec<Vec<f64>> =
         proxy.iter().zip(&w_sh).map(|((_, lo), w)| lo.iter().map(|x| x * w).collect()).collect();
+    let proxy_log_knots = proxy_log_knots(&gamma, k, &w_sh, EPS_REL, params.log_form);
 
     progress.update("indirect operators", 5, total_stages);
     let indirect: Vec<(Vec<f64>, Vec<f64>)> = alphas
@@ -436,6 +444,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         local_light_fit_max_rel_error: ll_max_err,
         local_light_fit_mean_rel_error: ll_mean_err,
         cap_log_samples,
+        proxy_log_knot_alphas: proxy_log_knots.iter().map(|kn| kn.alpha).collect(),
     };
     progress.update("done", total_stages, total_stages);
     Ok(TablesBake {
@@ -447,6 +456,7 @@ pub fn bake(params: &TablesParams, progress: &dyn Progress) -> Result<TablesBake
         ol,
         proxy_visibility,
         proxy_log_occlusion,
+        proxy_log_knots,
         eta_shadow: eta_sh,
         eta_shadow_delta: eta_delta,
         eta_shadow_windowed: eta_win,

@@ -5,7 +5,7 @@ use crate::tables::{INDIRECT_ORDER, LOCAL_LIGHT_PHI, LOCAL_LIGHT_THETA, SHTB_KIN
 use penumbra_asset::{AssetBuilder, Kind};
 use serde_json::json;
 
-/// Names of every section an SHTB v1 asset contains, for `require_known`.
+/// Names of every section an SHTB asset (v1 or v2) contains, for `require_known`.
 pub const SHTB_SECTIONS: &[&str] = &[
     "meta",
     "gamma_index",
@@ -17,6 +17,7 @@ pub const SHTB_SECTIONS: &[&str] = &[
     "ol_domain",
     "proxy_visibility",
     "proxy_log_occlusion",
+    "proxy_log_knots",
     "eta",
     "indirect_d",
     "indirect_m",
@@ -98,6 +99,13 @@ pub fn to_asset(b: &TablesBake, cache_key: Option<&str>) -> Result<AssetBuilder,
 
     a.add_f32("proxy_visibility", &[k, n], &flat_f32(&b.proxy_visibility)).map_err(err)?;
     a.add_f32("proxy_log_occlusion", &[k, n], &flat_f32(&b.proxy_log_occlusion)).map_err(err)?;
+    let knots: Vec<f32> = b
+        .proxy_log_knots
+        .iter()
+        .flat_map(|kn| core::iter::once(kn.alpha).chain(kn.row.iter().copied()))
+        .map(|v| v as f32)
+        .collect();
+    a.add_f32("proxy_log_knots", &[b.proxy_log_knots.len(), n + 1], &knots).map_err(err)?;
     let eta = [b.eta_shadow.eta, b.eta_shadow_delta.eta, b.eta_shadow_windowed.eta, b.eta_indirect.eta];
     a.add_f32("eta", &[4], &eta.map(|v| v as f32)).map_err(err)?;
 

@@ -28,6 +28,7 @@ pub fn cache_key(params: &TablesParams) -> String {
     let v = json!({
         "tool": env!("CARGO_PKG_VERSION"),
         "stage": "tables",
+        "kind_version": penumbra_sh::tables::SHTB_KIND_VERSION,
         "order": params.order,
         "theta_samples": params.theta_samples,
         "shading_tolerance": params.shading_tolerance,
