@@ -207,7 +207,6 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
     out
 }
 
-/// Ranges of the `[mrt]` stage (the same as `penumbra mrt dict`'s options).
 /// What is wrong with a node selection, if anything: an empty list or an empty pattern.
 pub fn node_select_issue(n: Option<&crate::types::NodeSelect>) -> Option<String> {
     let p = n?.patterns();
@@ -220,6 +219,7 @@ pub fn node_select_issue(n: Option<&crate::types::NodeSelect>) -> Option<String>
     }
 }
 
+/// Ranges of the `[mrt]` stage (the same as `penumbra mrt dict`'s options).
 fn validate_mrt(m: &crate::types::MrtStage, out: &mut Vec<Issue>) {
     let range = |out: &mut Vec<Issue>, key: &str, v: Option<u32>, lo: u32, hi: u32| {
         if let Some(v) = v {
