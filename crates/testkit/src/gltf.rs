@@ -70,6 +70,12 @@ pub fn glb(parts: &[Part<'_>]) -> Vec<u8> {
         views.join(","),
         accessors.join(",")
     );
+    container(json, bin)
+}
+
+/// A GLB container (glTF 2.0 §4.4): header, the JSON chunk padded with spaces and the BIN
+/// chunk padded with zeros to 4 bytes.
+fn container(json: String, mut bin: Vec<u8>) -> Vec<u8> {
     let mut j = json.into_bytes();
     while j.len() % 4 != 0 {
         j.push(b' ');
@@ -176,22 +182,7 @@ pub fn glb_textured(part: Part<'_>, uv: &[[f32; 2]], image: &[u8], mime: &str, w
         3 * part.triangles.len(),
         uv.len()
     );
-    let mut j = json.into_bytes();
-    while j.len() % 4 != 0 {
-        j.push(b' ');
-    }
-    let total = 12 + 8 + j.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((j.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(&j);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(&bin);
-    out
+    container(json, bin)
 }
 
 /// Positions, triangles and per-vertex UVs.
