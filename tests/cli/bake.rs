@@ -126,3 +126,154 @@ fn bake_stage_gates_pass_and_fail_keeping_the_asset() {
     assert_eq!(code, 2);
     assert!(stderr.contains("fiv[0].gate") || stderr.contains("max_rel_error"), "{stderr}");
 }
+
+/// A `.gltf` whose geometry lives in an external `mesh.bin` (a box `[0, s]³`, 8 vertices,
+/// 12 triangles); the JSON does not change with `s`.
+fn write_external_gltf(dir: &std::path::Path, s: f32) {
+    let (v, t) = penumbra_testkit::gltf::cuboid([0.0; 3], [s; 3]);
+    let mut bin: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    let plen = bin.len();
+    bin.extend(t.iter().flatten().flat_map(|x| x.to_le_bytes()));
+    std::fs::write(dir.join("mesh.bin"), &bin).unwrap();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0,"name":"box"}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"buffers":[{{"byteLength":{},"uri":"mesh.bin"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{plen}}},{{"buffer":0,"byteOffset":{plen},"byteLength":{}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[10,10,10]}},
+{{"bufferView":1,"componentType":5125,"count":36,"type":"SCALAR"}}]}}"#,
+        bin.len(),
+        bin.len() - plen
+    );
+    std::fs::write(dir.join("box.gltf"), json).unwrap();
+}
+
+fn bake_json(cfg: &std::path::Path, extra: &[&str]) -> Value {
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(cfg).arg("--json").args(extra));
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).unwrap()
+}
+
+#[test]
+fn an_edited_external_buffer_re_bakes_the_stages_that_read_it() {
+    // the cache key once hashed only the .gltf, so a changed .bin left stale assets "up-to-date"
+    let dir = tempfile::tempdir().unwrap();
+    write_external_gltf(dir.path(), 1.0);
+    let cfg = write_config(
+        dir.path(),
+        "output_dir = \"out\"\n[[spheres]]\nmesh = \"box.gltf\"\ncount = 2\ngrid = 16\n\
+         [[fiv]]\nmesh = \"box.gltf\"\nenv = \"builtin:area-lights\"\nsamples = [8, 5, 3]\ncube_size = 8\nirradiance_size = 8\n",
+    );
+    let v = bake_json(&cfg, &[]);
+    assert_eq!(v["stages"][0]["status"], "baked");
+    assert_eq!(v["stages"][1]["status"], "baked");
+    let first = std::fs::read(v["stages"][0]["output"].as_str().unwrap()).unwrap();
+    let v = bake_json(&cfg, &[]);
+    assert_eq!(v["stages"][0]["status"], "up-to-date");
+    assert_eq!(v["stages"][1]["status"], "up-to-date");
+    write_external_gltf(dir.path(), 2.0);
+    let v = bake_json(&cfg, &[]);
+    assert_eq!(v["stages"][0]["status"], "baked", "{v}");
+    assert_eq!(v["stages"][1]["status"], "baked", "{v}");
+    let second = std::fs::read(v["stages"][0]["output"].as_str().unwrap()).unwrap();
+    assert_ne!(first, second);
+}
+
+#[test]
+fn every_knob_and_input_changes_the_cache_key() {
+    let dir = tempfile::tempdir().unwrap();
+    write_external_gltf(dir.path(), 1.0);
+    std::fs::copy(dir.path().join("mesh.bin"), dir.path().join("mesh1.bin")).unwrap();
+    let spheres = "[[spheres]]\nmesh = \"box.gltf\"\ngrid = 16\n";
+    let fiv = "[[fiv]]\nmesh = \"box.gltf\"\nenv = \"builtin:area-lights\"\ncube_size = 8\nirradiance_size = 8\n";
+    // (stage index in the report, config body): each differs from the first in one thing
+    let variants: &[(usize, String)] = &[
+        (0, format!("{spheres}count = 2\n")),
+        (0, format!("{spheres}count = 3\n")),
+        (0, format!("{spheres}count = 2\nseed = 7\n")),
+        (0, format!("{spheres}count = 2\niterations = 3\n")),
+        (0, format!("{spheres}count = 2\nmethod = \"octree\"\n")),
+        (0, format!("{spheres}count = 2\nhierarchy = true\n")),
+        (0, format!("{spheres}count = 2\npolish = true\n")),
+        (0, format!("{spheres}count = 2\nalbedo = [0.5, 0.5, 0.5]\n")),
+        (0, format!("{spheres}count = 2\nnode = \"box\"\n")),
+        (0, format!("{spheres}target_error = 0.5\n")),
+        (0, "[[spheres]]\nmesh = \"box.gltf\"\ngrid = 20\ncount = 2\n".into()),
+        (0, format!("{fiv}samples = [8, 5, 3]\n")),
+        (0, format!("{fiv}samples = [8, 5, 4]\n")),
+        (0, format!("{fiv}samples = [8, 5, 3]\nr_min = 1.5\n")),
+        (0, format!("{fiv}samples = [8, 5, 3]\nr_max = 6.0\n")),
+        (0, format!("{fiv}samples = [8, 5, 3]\nup = \"z\"\n")),
+        (0, format!("{fiv}samples = [8, 5, 3]\nhalf = true\n")),
+        (0, format!("{fiv}samples = [8, 5, 3]\nenv_rotate = \"y180\"\n")),
+        (0, format!("{fiv}samples = [8, 5, 3]\nnode = \"b*\"\n")),
+        (0, "[[fiv]]\nmesh = \"box.gltf\"\nenv = \"builtin:area-lights\"\ncube_size = 16\nirradiance_size = 8\nsamples = [8, 5, 3]\n".into()),
+        (0, "[[fiv]]\nmesh = \"builtin:sphere\"\nenv = \"builtin:area-lights\"\ncube_size = 8\nirradiance_size = 8\nsamples = [8, 5, 3]\n".into()),
+        (0, "[tables]\norder = 3\ntheta_samples = 32\n".into()),
+        (0, "[tables]\norder = 4\ntheta_samples = 64\n".into()),
+        (0, "[tables]\norder = 3\ntheta_samples = 48\n".into()),
+    ];
+    let mut keys = std::collections::HashSet::new();
+    for (i, (stage, body)) in variants.iter().enumerate() {
+        let cfg = write_config(dir.path(), &format!("output_dir = \"out{i}\"\n{body}"));
+        let v = bake_json(&cfg, &[]);
+        let s = &v["stages"][*stage];
+        assert_eq!(s["status"], "baked", "{body}: {v}");
+        assert!(keys.insert(s["cache_key"].as_str().unwrap().to_string()), "{body}: key not new");
+        // the same config is up to date (the key is a function of the config and inputs)
+        assert_eq!(bake_json(&cfg, &[])["stages"][*stage]["status"], "up-to-date", "{body}");
+    }
+    // the external buffer's bytes: same JSON, other .bin → other key
+    let cfg = write_config(dir.path(), &format!("output_dir = \"out0\"\n{}", variants[0].1));
+    write_external_gltf(dir.path(), 1.5);
+    let v = bake_json(&cfg, &[]);
+    assert_eq!(v["stages"][0]["status"], "baked");
+    assert!(keys.insert(v["stages"][0]["cache_key"].as_str().unwrap().to_string()));
+}
+
+#[test]
+fn a_shared_cache_dir_serves_equal_keys_and_read_only_never_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = "[tables]\norder = 3\ntheta_samples = 32\n";
+    let a = write_config(dir.path(), &format!("output_dir = \"a\"\n{body}"));
+    let cache = dir.path().join("cache");
+    let cache_s = cache.to_str().unwrap();
+    let v = bake_json(&a, &["--cache-dir", cache_s]);
+    assert_eq!(v["stages"][0]["status"], "baked");
+    assert_eq!(v["stages"][0]["cache"]["stored"], true);
+    let key = v["stages"][0]["cache_key"].as_str().unwrap().to_string();
+    let entry = cache.join(format!("{key}.shtb"));
+    let baked = std::fs::read(dir.path().join("a/tables.shtb")).unwrap();
+    assert_eq!(std::fs::read(&entry).unwrap(), baked);
+
+    // another output directory (another machine) gets the same bytes without baking
+    let b = dir.path().join("b.toml");
+    std::fs::write(&b, format!("output_dir = \"b\"\n{body}")).unwrap();
+    let v = bake_json(&b, &["--cache-dir", cache_s, "--cache-read-only"]);
+    assert_eq!(v["stages"][0]["status"], "from-cache", "{v}");
+    assert_eq!(v["stages"][0]["metrics"]["gamma_nonzeros"], 83);
+    assert_eq!(std::fs::read(dir.path().join("b/tables.shtb")).unwrap(), baked);
+
+    // a damaged entry is a miss, never a corrupt output
+    let mut bad = baked.clone();
+    let n = bad.len();
+    bad[n - 5] ^= 0xff;
+    std::fs::write(&entry, &bad).unwrap();
+    std::fs::remove_dir_all(dir.path().join("b")).unwrap();
+    let v = bake_json(&b, &["--cache-dir", cache_s, "--cache-read-only"]);
+    assert_eq!(v["stages"][0]["status"], "baked");
+    assert!(v["stages"][0]["cache"]["why"].as_str().unwrap().starts_with("entry ignored"), "{v}");
+    assert_eq!(v["stages"][0]["cache"]["stored"], false);
+    assert_eq!(std::fs::read(&entry).unwrap(), bad, "read-only wrote the cache");
+    assert_eq!(std::fs::read(dir.path().join("b/tables.shtb")).unwrap(), baked);
+
+    // read-only against an empty cache bakes and leaves the directory alone
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let v = bake_json(&a, &["--force", "--cache-dir", empty.to_str().unwrap(), "--cache-read-only"]);
+    assert_eq!(v["stages"][0]["status"], "baked");
+    assert_eq!(std::fs::read_dir(&empty).unwrap().count(), 0);
+    // --cache-read-only needs --cache-dir
+    let (code, _, stderr) = run(penumbra().arg("bake").arg(&a).arg("--cache-read-only"));
+    assert_eq!(code, 2, "{stderr}");
+}

@@ -127,9 +127,18 @@ pub struct BakeArgs {
     /// Run the deterministic slice K of N (0-based K) of the independent work items.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
-    /// Re-bake even when the output is up to date.
+    /// Re-bake even when the output is up to date (and ignore the shared cache's entries).
     #[arg(long)]
     pub force: bool,
+    /// Shared content-addressed cache (e.g. a network directory): a stage whose cache key has
+    /// a valid entry there is copied from it instead of baked ("from-cache"), and every baked
+    /// or up-to-date output is stored there under its key.
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+    /// With --cache-dir: read entries, never write them (CI consumers of a cache that a
+    /// trusted job fills).
+    #[arg(long, requires = "cache_dir")]
+    pub cache_read_only: bool,
     /// Print the report as JSON on stdout.
     #[arg(long)]
     pub json: bool,

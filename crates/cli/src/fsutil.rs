@@ -21,6 +21,30 @@ pub fn write_atomic_text(path: &Path, text: &str) -> anyhow::Result<()> {
     result.with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Content hash of a bake input: the BLAKE3 of the file's bytes when it reads nothing else
+/// (OBJ, self-contained glTF/GLB, environment maps), otherwise the BLAKE3 of
+/// `{"file": <its hash>, "external": [[uri, <hash>], …]}` over every external buffer and image
+/// the glTF import reads (document order; a missing file hashes as `"missing"`, and the import
+/// then fails naming it). Cache keys built from it change when an edited `.bin` or texture
+/// would change the bake's bytes.
+pub fn hash_input(path: &Path) -> anyhow::Result<String> {
+    let file = hash_file(path)?;
+    // an unparsable glTF fails its import with the real message; hash what can be read
+    let external = penumbra_geometry::external_files(path).unwrap_or_default();
+    if external.is_empty() {
+        return Ok(file);
+    }
+    let ext: Vec<serde_json::Value> = external
+        .iter()
+        .map(|(uri, f)| {
+            let h =
+                std::fs::read(f).map(|b| blake3::hash(&b).to_hex().to_string()).unwrap_or_else(|_| "missing".into());
+            serde_json::json!([uri, h])
+        })
+        .collect();
+    Ok(blake3::hash(serde_json::json!({"file": file, "external": ext}).to_string().as_bytes()).to_hex().to_string())
+}
+
 /// blake3 hex digest of a file's bytes.
 pub fn hash_file(path: &Path) -> anyhow::Result<String> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;

@@ -65,7 +65,7 @@ pub use ball::{Ball, min_enclosing_ball};
 pub use bvh::{ClosestPoint, Hit, MeshBvh, PreparedDir, Ray, TraversalStack};
 pub use env::{CubeFace, CubeMap, EnvMap, EnvReport, load_env_map};
 pub use error::{EnvError, EnvErrorKind, EnvMapError, MeshError, MeshErrorKind, MeshValidationError};
-pub use import::{ImportReport, load_mesh};
+pub use import::{ImportReport, external_files, load_mesh};
 pub use inside::WindingNumber;
 pub use mesh::{Aabb, TriMesh};
 pub use packet::ParallelBvh;

@@ -1,6 +1,7 @@
 //! `penumbra bake <config.toml>`: run every stage a config names, skip the up-to-date ones,
 //! write `report.json`.
 
+use super::bake_cache::Cache;
 use crate::args::BakeArgs;
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
@@ -47,44 +48,57 @@ struct Baked {
 }
 
 /// The report of a stage whose output is keyed by `key`: "up-to-date" when the asset at
-/// `output` already carries that key (and `force` is off), otherwise runs `bake`.
+/// `output` already carries that key, "from-cache" when the shared cache has a valid entry
+/// for it (copied to `output`), otherwise runs `bake` ("baked") and stores the result in the
+/// shared cache. `cache.force` skips both lookups.
 fn cached_or_bake(
     name: &str,
     kind: &str,
     output: &Path,
     key: &str,
-    force: bool,
+    cache: &Cache,
     bake: impl FnOnce() -> Result<Baked, CliError>,
 ) -> Result<StageReport, CliError> {
     let start = Instant::now();
-    if !force {
+    let report = |status: &str, bytes: u64, seconds: f64, metrics: Value| {
+        json!({
+            "name": name, "kind": kind, "status": status,
+            "output": output.display().to_string(), "cache_key": key,
+            "bytes": bytes, "seconds": seconds, "metrics": metrics,
+        })
+    };
+    let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+    if !cache.force {
         if let Some((existing, metrics)) = existing_cache_key(output) {
             if existing == key {
-                return Ok(StageReport {
-                    value: json!({
-                        "name": name, "kind": kind, "status": "up-to-date",
-                        "output": output.display().to_string(), "cache_key": key,
-                        "bytes": std::fs::metadata(output).map(|m| m.len()).unwrap_or(0),
-                        "seconds": start.elapsed().as_secs_f64(), "metrics": metrics,
-                    }),
-                });
+                let mut value = report("up-to-date", size(output), start.elapsed().as_secs_f64(), metrics);
+                if let Some(c) = cache.share_if_missing(key, output) {
+                    value["cache"] = c;
+                }
+                return Ok(StageReport { value });
             }
         }
     }
+    let (hit, mut shared) = cache.restore(key, output);
+    if hit {
+        let metrics = existing_cache_key(output).map_or(Value::Null, |(_, m)| m);
+        let mut value = report("from-cache", size(output), start.elapsed().as_secs_f64(), metrics);
+        value["cache"] = shared.unwrap_or(Value::Null);
+        return Ok(StageReport { value });
+    }
     let o = bake()?;
-    Ok(StageReport {
-        value: json!({
-            "name": name, "kind": kind, "status": "baked",
-            "output": output.display().to_string(), "cache_key": key,
-            "bytes": o.bytes, "seconds": o.seconds, "metrics": o.metrics,
-        }),
-    })
+    let mut value = report("baked", o.bytes, o.seconds, o.metrics);
+    if let Some(c) = shared.as_mut() {
+        cache.store(key, output, c);
+        value["cache"] = shared.unwrap_or(Value::Null);
+    }
+    Ok(StageReport { value })
 }
 
 fn run_tables(
     cfg: &penumbra_config::LoadedConfig,
     out_dir: &Path,
-    force: bool,
+    cache: &Cache,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
     let Some(t) = &cfg.config.tables else {
@@ -102,7 +116,7 @@ fn run_tables(
     )?;
     let output = out_dir.join(t.output_name());
     let key = super::tables::cache_key(&p);
-    cached_or_bake("tables", "SHTB", &output, &key, force, || {
+    cached_or_bake("tables", "SHTB", &output, &key, cache, || {
         let o = super::tables::bake_to(&p, &output, mode)?;
         Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
     })
@@ -112,7 +126,7 @@ fn run_spheres(
     cfg: &penumbra_config::LoadedConfig,
     index: usize,
     out_dir: &Path,
-    force: bool,
+    cache: &Cache,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
     use penumbra_spheres::fit::{FitParams, Target};
@@ -148,8 +162,8 @@ fn run_spheres(
         params,
         output: out_dir.join(sp.output_name()),
     };
-    let key = super::spheres::cache_key(&job, &crate::fsutil::hash_file(&mesh)?);
-    cached_or_bake(&format!("spheres[{index}]"), "SPHR", &job.output, &key, force, || {
+    let key = super::spheres::cache_key(&job, &crate::fsutil::hash_input(&mesh)?);
+    cached_or_bake(&format!("spheres[{index}]"), "SPHR", &job.output, &key, cache, || {
         let o = super::spheres::bake_to(&job, mode)?;
         Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
     })
@@ -175,7 +189,7 @@ fn run_fiv(
     cfg: &penumbra_config::LoadedConfig,
     index: usize,
     out_dir: &Path,
-    force: bool,
+    cache: &Cache,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
     let Some(f) = cfg.config.fiv.get(index) else {
@@ -220,7 +234,7 @@ fn run_fiv(
     job.nodes = f.node.as_ref().map(penumbra_config::NodeSelect::patterns).unwrap_or_default();
     let output = out_dir.join(f.output_name());
     let key = super::fiv::cache_key(&job)?;
-    cached_or_bake(&name, "FIVT", &output, &key, force, || {
+    cached_or_bake(&name, "FIVT", &output, &key, cache, || {
         let o = super::fiv::bake_to(&job, penumbra_fiv::Shard::WHOLE, &output, mode)?;
         let r = &o.report;
         Ok(Baked {
@@ -237,7 +251,7 @@ fn run_fiv(
 fn run_mrt(
     cfg: &penumbra_config::LoadedConfig,
     out_dir: &Path,
-    force: bool,
+    cache: &Cache,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
     let Some(m) = &cfg.config.mrt else {
@@ -248,13 +262,13 @@ fn run_mrt(
         .map_err(|e| CliError { code: e.code, error: e.error.context(format!("{}: [mrt]", cfg.path.display())) })?;
     let output = out_dir.join(m.output_name());
     let key = super::mrt::cache_key(&p);
-    cached_or_bake("mrt", "MRTD", &output, &key, force, || {
+    cached_or_bake("mrt", "MRTD", &output, &key, cache, || {
         let o = super::mrt::bake_to(&p, &output, mode)?;
         Ok(Baked { bytes: o.bytes, seconds: o.seconds, metrics: o.metrics })
     })
 }
 
-fn run_mrt_level(cfg: &penumbra_config::LoadedConfig, out_dir: &Path, force: bool) -> Result<StageReport, CliError> {
+fn run_mrt_level(cfg: &penumbra_config::LoadedConfig, out_dir: &Path, cache: &Cache) -> Result<StageReport, CliError> {
     use super::mrt_level::{LevelSource, bake, load_dict, resolve};
     let (Some(l), Some(m)) = (&cfg.config.mrt_level, &cfg.config.mrt) else {
         return Err(CliError::internal(anyhow!("mrt_level stage selected but not configured")));
@@ -283,7 +297,7 @@ fn run_mrt_level(cfg: &penumbra_config::LoadedConfig, out_dir: &Path, force: boo
     .to_hex()
     .to_string();
     let output = out_dir.join(l.output_name());
-    cached_or_bake("mrt_level", "MRTL", &output, &key, force, || {
+    cached_or_bake("mrt_level", "MRTL", &output, &key, cache, || {
         let start = Instant::now();
         let src = LevelSource { maze: l.maze, seed: l.seed.unwrap_or(0), corridor: None, l_turn: None };
         let (level, links, _) = resolve(level_path.as_deref(), &src, &d)?;
@@ -298,7 +312,7 @@ fn run_mrt_level(cfg: &penumbra_config::LoadedConfig, out_dir: &Path, force: boo
 fn run_drt(
     cfg: &penumbra_config::LoadedConfig,
     out_dir: &Path,
-    force: bool,
+    cache: &Cache,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
     use super::drt::{DrtSceneArgs, bake_scene_stateful, cache_key, load_scene};
@@ -344,7 +358,7 @@ fn run_drt(
     let output = out_dir.join(d.output_name());
     // the rays' sums beside the asset: moving clutter re-bakes only the rays it touches
     let state = out_dir.join(format!("{}.state", d.output_name()));
-    cached_or_bake("drt", "DRTO", &output, &key, force, || {
+    cached_or_bake("drt", "DRTO", &output, &key, cache, || {
         let start = Instant::now();
         let (b, bytes, sb, inc) = bake_scene_stateful(&sc, &params, &state, mode)?;
         penumbra_asset::write_file_atomic(&output, &bytes)
@@ -359,7 +373,7 @@ fn run_drt(
 fn run_vo(
     cfg: &penumbra_config::LoadedConfig,
     out_dir: &Path,
-    force: bool,
+    cache: &Cache,
     mode: ProgressMode,
 ) -> Result<StageReport, CliError> {
     let Some(v) = &cfg.config.vo else {
@@ -375,7 +389,7 @@ fn run_vo(
     };
     let output = out_dir.join(v.output_name());
     let key = super::vo::cache_key(&p);
-    cached_or_bake("vo", "VOSS", &output, &key, force, || {
+    cached_or_bake("vo", "VOSS", &output, &key, cache, || {
         let o = super::vo::bake_to(&p, &output, mode, Some(key.clone()))?;
         let seconds = o.report["seconds"].as_f64().unwrap_or(0.0);
         Ok(Baked { bytes: o.bytes, seconds, metrics: o.report })
@@ -519,6 +533,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     std::fs::create_dir_all(&out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
 
+    let cache = Cache { dir: a.cache_dir.clone(), read_only: a.cache_read_only, force: a.force };
     let mut stages = Vec::new();
     let mut failed_gates: Vec<Value> = Vec::new();
     for (item, &(name, index)) in items.iter().enumerate() {
@@ -535,13 +550,13 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             }
         }
         let mut r = match name {
-            "tables" => run_tables(&cfg, &out_dir, a.force, mode)?,
-            "spheres" => run_spheres(&cfg, index, &out_dir, a.force, mode)?,
-            "fiv" => run_fiv(&cfg, index, &out_dir, a.force, mode)?,
-            "mrt" => run_mrt(&cfg, &out_dir, a.force, mode)?,
-            "mrt_level" => run_mrt_level(&cfg, &out_dir, a.force)?,
-            "drt" => run_drt(&cfg, &out_dir, a.force, mode)?,
-            "vo" => run_vo(&cfg, &out_dir, a.force, mode)?,
+            "tables" => run_tables(&cfg, &out_dir, &cache, mode)?,
+            "spheres" => run_spheres(&cfg, index, &out_dir, &cache, mode)?,
+            "fiv" => run_fiv(&cfg, index, &out_dir, &cache, mode)?,
+            "mrt" => run_mrt(&cfg, &out_dir, &cache, mode)?,
+            "mrt_level" => run_mrt_level(&cfg, &out_dir, &cache)?,
+            "drt" => run_drt(&cfg, &out_dir, &cache, mode)?,
+            "vo" => run_vo(&cfg, &out_dir, &cache, mode)?,
             other => return Err(CliError::internal(anyhow!("stage {other} has no runner"))),
         };
         if !a.json {

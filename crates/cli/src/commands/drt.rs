@@ -114,7 +114,7 @@ fn clutter_from_file(path: &Path) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliE
         } else {
             let rel = c.mesh.as_deref().unwrap_or_default();
             let mp = base.join(rel);
-            let bytes = std::fs::read(&mp)
+            let h = crate::fsutil::hash_input(&mp)
                 .with_context(|| format!("{}: clutter[{i}]: cannot read mesh {}", path.display(), mp.display()))?;
             let (scene, _) = penumbra_geometry::load_mesh(&mp)
                 .map_err(|e| CliError::input(anyhow!("{}: clutter[{i}]: {e}", path.display())))?;
@@ -124,7 +124,6 @@ fn clutter_from_file(path: &Path) -> Result<(Vec<ClutterSpec>, Vec<Value>), CliE
                     CliError::input(anyhow!("{}: clutter[{i}].node {:?}: {why}", path.display(), n.patterns()))
                 })?,
             };
-            let h = blake3::hash(&bytes).to_hex().to_string();
             let lightmap = match c.charts {
                 Some(ChartsName::Lightmap) if scene.uv1.is_empty() => {
                     return Err(CliError::input(anyhow!(

@@ -3,7 +3,7 @@
 use crate::args::{EnvRotateArg, FivArgs, FivBakeArgs, FivCommand, FivExportArgs, ShardMergeArgs, UpArg};
 use crate::commands::print_json;
 use crate::exit::{CliError, ExitCode};
-use crate::fsutil::{ensure_parent, hash_file};
+use crate::fsutil::{ensure_parent, hash_input};
 use crate::progress::{ProgressMode, Reporter};
 use anyhow::{Context, anyhow};
 use penumbra_asset::AssetFile;
@@ -129,7 +129,7 @@ pub fn load_occluder(spec: &str, nodes: &[String]) -> Result<Input<TriMesh>, Cli
     };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let (report, warnings) = mesh_report(&scene, &report, &name);
-    Ok(Input { data: scene.mesh, name, blake3: hash_file(path)?, report, warnings })
+    Ok(Input { data: scene.mesh, name, blake3: hash_input(path)?, report, warnings })
 }
 
 fn rotate(env: EnvMap, r: Rotation, spec: &str) -> Result<EnvMap, CliError> {
@@ -195,7 +195,7 @@ pub fn load_env_yawed(
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let (report, warnings) = env_report(&report, &name);
     let cube = CubeMap::from_latlong(&yawed(rotate(env, rotation, spec)?, yaw.0, yaw.1, spec)?, cube_size);
-    Ok(Input { data: cube, name, blake3: hash_file(path)?, report, warnings })
+    Ok(Input { data: cube, name, blake3: hash_input(path)?, report, warnings })
 }
 
 /// Parses `AxPxK`.
@@ -266,9 +266,9 @@ impl FivJob {
     }
 }
 
-/// Content hash of a mesh or environment spec: the file's blake3, or the builtin's.
+/// Content hash of a mesh or environment spec: [`hash_input`] of the file, or the builtin's.
 pub fn spec_hash(spec: &str) -> Result<String, CliError> {
-    if spec.starts_with("builtin:") { Ok(builtin_hash(spec)) } else { Ok(hash_file(Path::new(spec))?) }
+    if spec.starts_with("builtin:") { Ok(builtin_hash(spec)) } else { Ok(hash_input(Path::new(spec))?) }
 }
 
 /// Normalised parameters and input hashes, hashed for the cache key (reads the input files

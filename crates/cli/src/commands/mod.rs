@@ -1,6 +1,7 @@
 //! Command implementations.
 
 pub mod bake;
+pub mod bake_cache;
 pub mod drt;
 pub mod fiv;
 pub mod gate;

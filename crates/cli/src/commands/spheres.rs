@@ -247,9 +247,7 @@ fn result_json(r: &FitResult, import: &ImportReport, scene: &Scene) -> Value {
 /// Runs one job: load, fit, write atomically.
 pub fn bake_to(job: &SpheresJob, mode: ProgressMode) -> Result<SpheresOutcome, CliError> {
     let start = Instant::now();
-    let bytes_in = std::fs::read(&job.mesh).with_context(|| format!("cannot read {}", job.mesh.display()))?;
-    let mesh_hash = blake3::hash(&bytes_in).to_hex().to_string();
-    drop(bytes_in);
+    let mesh_hash = crate::fsutil::hash_input(&job.mesh)?;
     let (scene, import) = load_scene(&job.mesh, job.mesh_name.as_deref(), &job.nodes)?;
     let reporter = Reporter::new("spheres", mode);
     let r = penumbra_spheres::fit(&scene, &job.params, &reporter)

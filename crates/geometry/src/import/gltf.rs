@@ -52,6 +52,24 @@ pub fn load_gltf(path: &Path) -> Result<(Scene, ImportReport), MeshError> {
     load_gltf_bytes(path, &bytes, base)
 }
 
+/// The files outside `path` that a load of it reads: every buffer and image whose URI is a
+/// relative file path (percent-decoded, relative to the file's directory), in document order
+/// (buffers, then images), each with its URI. `data:` URIs and the GLB's own BIN chunk are part
+/// of the file and are not listed. What a content hash of the input must cover besides the file.
+pub fn external_files(path: &Path) -> Result<Vec<(String, std::path::PathBuf)>, MeshError> {
+    let bytes = std::fs::read(path).map_err(|e| MeshError::new(path, e))?;
+    let err = |m: String| MeshError::new(path, MeshErrorKind::Gltf(m));
+    let json = if bytes.starts_with(b"glTF") { split_glb(&bytes).map_err(err)?.0 } else { &bytes[..] };
+    let gltf::Gltf { document: doc, .. } =
+        gltf::Gltf::from_slice_without_validation(json).map_err(|e| err(e.to_string()))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    // the raw JSON, not the crate's accessors: those panic on unvalidated indices
+    let root = doc.as_json();
+    let uris =
+        root.buffers.iter().filter_map(|b| b.uri.clone()).chain(root.images.iter().filter_map(|i| i.uri.clone()));
+    Ok(uris.filter_map(|u| super::gltf_data::local_file(base, &u).map(|f| (u, f))).collect())
+}
+
 /// Loads glTF/GLB bytes; external buffers are resolved relative to `base_dir`; `path` is only
 /// used in error messages.
 pub fn load_gltf_bytes(path: &Path, bytes: &[u8], base_dir: &Path) -> Result<(Scene, ImportReport), MeshError> {
@@ -846,6 +864,28 @@ mod tests {
     }
 
     use super::*;
+
+    #[test]
+    fn external_files_lists_relative_buffers_and_images_only() {
+        let dir = std::env::temp_dir().join(format!("penumbra-extfiles-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("s.gltf");
+        std::fs::write(
+            &p,
+            r#"{"asset":{"version":"2.0"},
+                "buffers":[{"byteLength":4,"uri":"data:application/octet-stream;base64,AAAAAA=="},
+                           {"byteLength":4,"uri":"sub/my%20mesh.bin"},{"byteLength":4,"uri":"https://x/y.bin"}],
+                "images":[{"uri":"albedo.png"},{"bufferView":0,"mimeType":"image/png"},{"uri":"/abs/x.png"}]}"#,
+        )
+        .unwrap();
+        let got = external_files(&p).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let want: Vec<(String, std::path::PathBuf)> = vec![
+            ("sub/my%20mesh.bin".into(), dir.join("sub/my mesh.bin")),
+            ("albedo.png".into(), dir.join("albedo.png")),
+        ];
+        assert_eq!(got, want);
+    }
 
     #[test]
     fn strip_and_fan_orders() {

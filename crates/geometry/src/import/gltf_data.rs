@@ -74,13 +74,11 @@ impl<'a> BufferStore<'a> {
             }
             return decode_base64(payload).map_err(|e| format!("{what}: data URI: {e}"));
         }
-        if has_scheme(uri) {
+        let Some(file) = local_file(&self.base_dir, uri) else {
             return Err(format!(
                 "{what}: URI {uri:?} is not a relative file path or data URI (remote resources are not fetched)"
             ));
-        }
-        let rel = percent_decode(uri);
-        let file = self.base_dir.join(&rel);
+        };
         std::fs::read(&file).map_err(|e| format!("{what}: cannot read {}: {e}", file.display()))
     }
 
@@ -103,6 +101,15 @@ impl<'a> BufferStore<'a> {
             gltf::image::Source::Uri { uri, .. } => self.read_uri(&what, uri),
         }
     }
+}
+
+/// The file a relative glTF URI names (percent-decoded, under `base_dir`); `None` for `data:`
+/// URIs and for URIs with a scheme or an absolute path, which the importer never reads.
+pub(crate) fn local_file(base_dir: &Path, uri: &str) -> Option<std::path::PathBuf> {
+    if uri.starts_with("data:") || has_scheme(uri) {
+        return None;
+    }
+    Some(base_dir.join(percent_decode(uri)))
 }
 
 fn has_scheme(uri: &str) -> bool {

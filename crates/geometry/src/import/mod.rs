@@ -76,3 +76,14 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<(Scene, ImportReport), MeshEr
         MeshFormat::Gltf => gltf::load_gltf(path),
     }
 }
+
+/// The files besides `path` that [`load_mesh`] reads (see [`gltf::external_files`]); none for
+/// OBJ, whose material libraries are never read. A content hash of a mesh input must cover
+/// these too, or an edited `.bin` or texture would not change it.
+pub fn external_files(path: impl AsRef<Path>) -> Result<Vec<(String, std::path::PathBuf)>, MeshError> {
+    let path = path.as_ref();
+    match mesh_format(path)? {
+        MeshFormat::Obj => Ok(Vec::new()),
+        MeshFormat::Gltf => gltf::external_files(path),
+    }
+}
