@@ -19,6 +19,7 @@ pub mod drt;
 mod error;
 pub mod fiv;
 pub mod mrt;
+pub mod mrt_vec;
 mod proxy_knots;
 pub mod sh;
 pub mod shadows;

@@ -56,6 +56,10 @@ pub struct MrtShape<'a> {
     pub t_d2b: &'a [f32],
     /// Per face: the `U_r` row of each texel for light entering through that face.
     pub u_r_idx: [Option<&'a [u32]>; 6],
+    /// `U_b⃗` (n × k_b × 4, OHLSH in the texel frame), when the dictionary has it.
+    pub u_bvec: Option<&'a [f32]>,
+    /// `U_bvol` (G × k_b × 9, order-3 SH in the shape frame) and the probe centres (G × 3).
+    pub u_bvol: Option<(&'a [f32], &'a [f32])>,
 }
 
 /// A dictionary's runtime view (`MRTD`, kind version 2 with interfaces).
@@ -116,7 +120,22 @@ impl<'a> MrtDictionary<'a> {
                     *slot = Some(idx);
                 }
             }
-            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx });
+            let u_bvec = match a.section(&format!("{name}.u_bvec")) {
+                Some(_) => Some(f32_section(a, &format!("{name}.u_bvec"), &[n, k_b, 4])?),
+                None => None,
+            };
+            let u_bvol = match a.section(&format!("{name}.probes")) {
+                Some(p) => {
+                    let g = p.dims().first().copied().unwrap_or(0);
+                    let probes = f32_section(a, &format!("{name}.probes"), &[g, 3])?;
+                    if crate::mrt_vec::grid_res(g).is_none() {
+                        return Err(bad(format!("{name}.probes: {g} probes is not a cube number")));
+                    }
+                    Some((f32_section(a, &format!("{name}.u_bvol"), &[g, k_b, 9])?, probes))
+                }
+                None => None,
+            };
+            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx, u_bvec, u_bvol });
         }
         if shapes.is_empty() {
             return Err(bad("the dictionary has no shapes"));
@@ -141,6 +160,10 @@ pub struct MrtRecord {
 pub struct MrtLevel<'a> {
     /// Per block: dictionary shape index.
     pub shapes: Vec<usize>,
+    /// Per block: quarter turns about +Y.
+    pub rotations: Vec<u32>,
+    /// Per block: translation (centre) and scale (`block_xform`), when present.
+    pub xform: Option<&'a [f32]>,
     /// Records, sorted by `(dst, face, src)`.
     pub records: Vec<MrtRecord>,
     /// `T_b→r` (records × k_r × k_b).
@@ -167,6 +190,11 @@ impl<'a> MrtLevel<'a> {
             d => return Err(bad(format!("blocks: dims {d:?}"))),
         };
         let shapes: Vec<usize> = blocks.chunks_exact(2).map(|c| c[0] as usize).collect();
+        let rotations: Vec<u32> = blocks.chunks_exact(2).map(|c| c[1] % 4).collect();
+        let xform = match a.section("block_xform") {
+            Some(_) => Some(f32_section(a, "block_xform", &[nb, 6])?),
+            None => None,
+        };
         if shapes.iter().any(|&s| s >= d.shapes.len()) {
             return Err(bad("blocks: shape index out of range for this dictionary"));
         }
@@ -219,7 +247,7 @@ impl<'a> MrtLevel<'a> {
                 return Err(bad(format!("atlas pad record {p:?} out of range")));
             }
         }
-        Ok(Self { shapes, records, t_b2r, k_b, atlas, tiles, pad })
+        Ok(Self { shapes, rotations, xform, records, t_b2r, k_b, atlas, tiles, pad })
     }
 }
 
@@ -288,6 +316,12 @@ impl<'a> MrtRuntime<'a> {
     /// `x·level().k_b`, its shape's `k_b` entries; DRT reads them).
     pub fn coefficients(&self) -> &[f32] {
         &self.b
+    }
+
+    /// `b_g` per block and face slot from the last [`MrtRuntime::indirect`] (block `x`, slot
+    /// `s` at `(x·6 + s)·level().k_b`): the part of `b` from face slot `s`'s direct light.
+    pub fn face_coefficients(&self) -> &[f32] {
+        &self.b_face
     }
 
     /// One-bounce indirect irradiance at every texel from direct irradiance `l_d` (both in
