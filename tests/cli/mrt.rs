@@ -56,6 +56,7 @@ fn json_keys_are_present_and_honest() {
         "enrichment_rel_error_before",
         "enrichment_rel_error_after",
         "enrichment_rel_error_enriched_only",
+        "enrichment_rel_error_excluded_only",
         "enrichment",
         "shapes",
         "bytes",

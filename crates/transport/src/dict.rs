@@ -283,8 +283,12 @@ pub struct RedBox {
     /// The same with the enriched operators.
     pub red_on_white_after: f64,
     /// The enriched operators evaluated without the same-face exclusion (the thesis's
-    /// runtime rule), for comparison.
+    /// runtime rule), for comparison: what enrichment alone does.
     pub enriched_without_exclusion: RedBoxError,
+    /// The unenriched operators evaluated with the same-face exclusion: what the exclusion
+    /// alone does (a measurement only; a dictionary cannot be baked this way, see
+    /// [`DictParams::validate`]).
+    pub excluded_without_enrichment: RedBoxError,
     /// The case that can fail under the exclusion (App. A's test cannot: with one white face
     /// both the reference and the excluded prediction of its non-red light are zero): floor
     /// and ceiling white, four red walls; the green light one white face sends to the other is
@@ -299,10 +303,16 @@ pub struct TwoWhite {
     pub green_rel_error_before: f64,
     /// The same, enriched operators, plain rule (what enrichment alone does).
     pub green_rel_error_enriched: f64,
+    /// The same, unenriched operators with the same-face exclusion (what the exclusion alone
+    /// does; a measurement only).
+    pub green_rel_error_excluded: f64,
     /// The same, enriched operators with the same-face exclusion (enrichment and exclusion).
     pub green_rel_error_enriched_excluded: f64,
-    /// RGB error on the white faces, same three runtimes.
+    /// RGB error on the white faces, runtimes in the order neither, enrichment only,
+    /// enrichment + exclusion (`green_rel_error_before`, `_enriched`, `_enriched_excluded`).
     pub rgb_rel_error: [f64; 3],
+    /// RGB error on the white faces, exclusion only.
+    pub rgb_rel_error_excluded: f64,
 }
 
 /// Green light on the white faces `faces` of the closed cube (the other faces red: zero green
@@ -382,6 +392,9 @@ pub struct DictMetrics {
     pub enrichment_rel_error_after: f64,
     /// The five-red-faces error with enrichment alone (plain rule): what enrichment does.
     pub enrichment_rel_error_enriched_only: f64,
+    /// The five-red-faces error with the same-face exclusion alone (unenriched operators):
+    /// what the exclusion does.
+    pub enrichment_rel_error_excluded_only: f64,
     /// The five-red-faces case in full.
     pub enrichment: RedBox,
     /// Everything per shape.
@@ -457,6 +470,7 @@ pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progres
         enrichment_rel_error_before: enrichment.rel_error_before,
         enrichment_rel_error_after: enrichment.rel_error_after,
         enrichment_rel_error_enriched_only: enrichment.enriched_without_exclusion.rgb,
+        enrichment_rel_error_excluded_only: enrichment.excluded_without_enrichment.rgb,
         enrichment,
         shapes: BTreeMap::new(),
         interfaces: Vec::new(),
@@ -715,14 +729,18 @@ fn red_box(tex: &Texels, f: MatRef<'_, f64>, e: &Mat<f64>, before: &Reduced, aft
     let b = red_box_error(tex, f, e.as_ref(), before, false);
     let p = red_box_error(tex, f, e.as_ref(), after, false);
     let a = red_box_error(tex, f, e.as_ref(), after, exclude);
+    // what the exclusion does on its own: the unenriched operators, excluded
+    let x = red_box_error(tex, f, e.as_ref(), before, true);
     // floor (−y, face 2) and ceiling (+y, face 3) white
-    let tw = [(before, false), (after, false), (after, exclude)]
+    let tw = [(before, false), (after, false), (after, exclude), (before, true)]
         .map(|(r, x)| two_white_error(tex, f, e.as_ref(), r, &[2, 3], x));
     let two_white = TwoWhite {
         green_rel_error_before: tw[0].0,
         green_rel_error_enriched: tw[1].0,
+        green_rel_error_excluded: tw[3].0,
         green_rel_error_enriched_excluded: tw[2].0,
         rgb_rel_error: [tw[0].1, tw[1].1, tw[2].1],
+        rgb_rel_error_excluded: tw[3].1,
     };
     RedBox {
         two_white,
@@ -733,5 +751,6 @@ fn red_box(tex: &Texels, f: MatRef<'_, f64>, e: &Mat<f64>, before: &Reduced, aft
         red_on_white_before: b.red,
         red_on_white_after: a.red,
         enriched_without_exclusion: p,
+        excluded_without_enrichment: x,
     }
 }

@@ -292,6 +292,16 @@ fn table_3_2_and_enrichment_at_thesis_settings() {
     assert!(t.green_rel_error_enriched_excluded < 0.6 * t.green_rel_error_enriched, "{t:?}");
     assert!(t.green_rel_error_enriched_excluded > 1e-3 && t.green_rel_error_enriched_excluded < 0.1, "{t:?}");
     assert_eq!(b.metrics.enrichment_rel_error_enriched_only, e.enriched_without_exclusion.rgb);
+    // the exclusion alone (unenriched operators): on App. A's case it removes the non-red
+    // light on the white face by construction (zero against a zero reference), so only the
+    // two-white case shows what it does without enrichment's face-local prior vectors
+    assert_eq!(b.metrics.enrichment_rel_error_excluded_only, e.excluded_without_enrichment.rgb);
+    assert!(e.excluded_without_enrichment.non_red < 1e-12, "{e:?}");
+    // measured (4 test lights): two white, green 0.683 neither, 0.193 enrichment only, 0.176
+    // exclusion only, 0.069 both: each alone helps, both together beat either
+    assert!(t.green_rel_error_excluded < 0.5 * t.green_rel_error_before, "{t:?}");
+    assert!(t.green_rel_error_enriched_excluded < 0.6 * t.green_rel_error_excluded, "{t:?}");
+    assert!(t.rgb_rel_error_excluded < t.rgb_rel_error[0] && t.rgb_rel_error[2] < t.rgb_rel_error_excluded, "{t:?}");
 }
 
 #[test]

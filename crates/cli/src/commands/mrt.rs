@@ -432,7 +432,7 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         let m = &out.metrics;
         let t = &m["table_3_2"];
         eprintln!(
-            "wrote {} ({} bytes) in {:.2} s\n  Table 3.2 (closed cube, n = {}): F {}  L_d {}  M {}   (thesis: F 164/240/313, L_d 22/41/62, M 1/5/8)\n  App. A (five red faces): white-face error {:.3} without enrichment, {:.3} enriched, {:.3} enriched + same-face exclusion\n  floor and ceiling white: green error {:.3} / {:.3} / {:.3}",
+            "wrote {} ({} bytes) in {:.2} s\n  Table 3.2 (closed cube, n = {}): F {}  L_d {}  M {}   (thesis: F 164/240/313, L_d 22/41/62, M 1/5/8)\n  App. A (five red faces), white-face error: {:.3} neither, {:.3} enrichment only, {:.3} same-face exclusion only, {:.3} both\n  floor and ceiling white, green error: {:.3} neither, {:.3} enrichment only, {:.3} exclusion only, {:.3} both",
             a.output.display(),
             out.bytes,
             out.seconds,
@@ -442,9 +442,11 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             t["M"],
             m["enrichment_rel_error_before"].as_f64().unwrap_or(f64::NAN),
             m["enrichment_rel_error_enriched_only"].as_f64().unwrap_or(f64::NAN),
+            m["enrichment_rel_error_excluded_only"].as_f64().unwrap_or(f64::NAN),
             m["enrichment_rel_error_after"].as_f64().unwrap_or(f64::NAN),
             m["enrichment"]["two_white"]["green_rel_error_before"].as_f64().unwrap_or(f64::NAN),
             m["enrichment"]["two_white"]["green_rel_error_enriched"].as_f64().unwrap_or(f64::NAN),
+            m["enrichment"]["two_white"]["green_rel_error_excluded"].as_f64().unwrap_or(f64::NAN),
             m["enrichment"]["two_white"]["green_rel_error_enriched_excluded"].as_f64().unwrap_or(f64::NAN),
         );
         if let Some(im) = m["interface_metrics"].as_object() {
