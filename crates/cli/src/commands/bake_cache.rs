@@ -8,6 +8,7 @@
 //! valid asset (every section checksum) whose metadata carries the key; anything else is a
 //! miss. `--cache-read-only` (CI consumers) reads entries and never writes.
 
+use anyhow::Context;
 use penumbra_asset::AssetFile;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
@@ -63,7 +64,8 @@ impl Cache {
     /// read-only); the report's `cache` object, `None` without a cache directory.
     pub fn share_if_missing(&self, key: &str, output: &Path) -> Option<Value> {
         let entry = self.entry(key, output)?;
-        let mut c = json!({"dir": self.dir, "entry": entry, "hit": entry.is_file()});
+        // "present": the cache already held the key (this run was served locally, not a hit)
+        let mut c = json!({"dir": self.dir, "entry": entry, "present": entry.is_file()});
         if !entry.is_file() {
             self.store(key, output, &mut c);
         }
@@ -84,7 +86,8 @@ impl Cache {
             let bytes = std::fs::read(output)?;
             penumbra_asset::write_file_atomic(&entry, &bytes)?;
             Ok(())
-        })();
+        })()
+        .with_context(|| format!("cannot store {} in the cache {}", output.display(), entry.display()));
         match result {
             Ok(()) => report["stored"] = json!(true),
             Err(e) => {
