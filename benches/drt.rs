@@ -113,8 +113,10 @@ fn drt(c: &mut Criterion) {
         clutter_hashes: vec![],
         clutter: serde_json::json!([]),
     };
-    let obytes =
-        penumbra_transport::drt_asset::to_asset(&b, &scene, &inputs, None).expect("asset").to_bytes().expect("bytes");
+    let obytes = penumbra_transport::drt_asset::to_asset(&b, &scene, &inputs, None, None)
+        .expect("asset")
+        .to_bytes()
+        .expect("bytes");
     let oo = penumbra_asset::OwnedAsset::parse(&obytes).expect("parse");
     let (la, oa) = (lo.asset(), oo.asset());
     let rd = MrtDictionary::from_asset(&dai).expect("runtime dict");

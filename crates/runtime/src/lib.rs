@@ -16,6 +16,7 @@
 //!   direct light at their texels (`MRTD` + `MRTL`), one or many bounces, padded atlas.
 
 pub mod drt;
+pub mod drt_vec;
 mod error;
 pub mod fiv;
 pub mod mrt;

@@ -221,7 +221,7 @@ pub fn rotate_vec_y(v: [f32; 3], q: u32) -> [f32; 3] {
 }
 
 /// Trilinear blend of `res³` cell-centre values (9 each, x fastest) at `p ∈ [0,1]³`.
-fn trilinear(sh: &[f32], res: usize, p: [f32; 3]) -> [f32; 9] {
+pub(crate) fn trilinear(sh: &[f32], res: usize, p: [f32; 3]) -> [f32; 9] {
     let mut i0 = [0usize; 3];
     let mut f = [0.0f32; 3];
     for a in 0..3 {

@@ -127,6 +127,12 @@ pub struct DrtParams {
     /// Store the operators and clutter normals as f16 (default: half the bytes at a relative
     /// change of the verified error below 10⁻⁵, docs/drt.md).
     pub half: bool,
+    /// Also bake the vector and volume operators (§5.4.3, [`crate::drt_vector`]) with this many
+    /// uniform-hemisphere rays per texel; `None`: scalar operators only.
+    pub vector_rays: Option<usize>,
+    /// `U_dyn` probes per block edge (`None`: the dictionary's `volume_res`, so `U_dyn`
+    /// replaces `U_bvol` probe for probe).
+    pub volume_res: Option<usize>,
 }
 
 impl Default for DrtParams {
@@ -144,6 +150,8 @@ impl Default for DrtParams {
             clutter_basis_res: 2,
             seed: 0,
             half: true,
+            vector_rays: None,
+            volume_res: None,
         }
     }
 }
@@ -171,12 +179,22 @@ impl DrtParams {
         if !(2..=64).contains(&self.clutter_res) {
             return bad("clutter_res", self.clutter_res.to_string(), "2..=64");
         }
+        if let Some(v) = self.vector_rays {
+            if !(16..=1 << 18).contains(&v) {
+                return bad("vector_rays", v.to_string(), "16..=262144");
+            }
+        }
+        if let Some(g) = self.volume_res {
+            if !(1..=16).contains(&g) {
+                return bad("volume_res", g.to_string(), "1..=16");
+            }
+        }
         Ok(())
     }
 
     /// The normalised parameters (the asset's `meta.params`).
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "rays": self.rays,
             "clutter_rays": self.clutter_rays,
             "neighborhood": self.neighborhood,
@@ -190,7 +208,15 @@ impl DrtParams {
             "seed": self.seed,
             "half": self.half,
             "weighting": "cosine",
-        })
+        });
+        // only when asked for: scalar bakes keep their bytes and cache keys
+        if let Some(r) = self.vector_rays {
+            v["vector_rays"] = serde_json::json!(r);
+        }
+        if let Some(g) = self.volume_res {
+            v["volume_res"] = serde_json::json!(g);
+        }
+        v
     }
 }
 
@@ -234,6 +260,9 @@ pub struct DrtDict {
     pub albedo: f64,
     /// CRC-32C of the dictionary file.
     pub crc32c: u32,
+    /// Volume probes per block edge of the dictionary's `U_bvol` (`params.volume_res`; 4 when
+    /// the meta does not say).
+    pub volume_res: usize,
 }
 
 fn read_rows(a: &Asset<'_>, name: &str, n: usize, k: usize) -> Result<Vec<f64>, TransportError> {
@@ -286,7 +315,8 @@ impl DrtDict {
             shapes.push(DrtShape::new(name, texels, k_b, l_imp, u_b));
             missing.push(m);
         }
-        Ok(Self { shapes, missing, face_res, albedo, crc32c: penumbra_asset::crc32c(a.bytes()) })
+        let volume_res = meta["params"]["volume_res"].as_u64().unwrap_or(4) as usize;
+        Ok(Self { shapes, missing, face_res, albedo, crc32c: penumbra_asset::crc32c(a.bytes()), volume_res })
     }
 }
 
@@ -1446,6 +1476,7 @@ mod tests {
             face_res: R,
             albedo,
             crc32c: 0,
+            volume_res: 2,
         }
     }
 
@@ -1496,6 +1527,8 @@ mod tests {
             clutter_basis_res: 1,
             seed: 3,
             half: false,
+            vector_rays: None,
+            volume_res: None,
         }
     }
 

@@ -8,6 +8,7 @@ use crate::clutter::ClutterScene;
 use crate::drt::{
     DRTO_KIND_VERSION, DeltaRecord, DrtBake, DrtMetrics, DrtParams, DrtShard, GatherOp, KcMode, Receiver, ReflectRecord,
 };
+use crate::drt_vector::{Cols, DrtVectorBake, VecRecord};
 use penumbra_asset::{Asset, AssetBuilder, DType, Kind};
 use serde_json::{Value, json};
 
@@ -38,6 +39,24 @@ pub const DRTO_SECTIONS: &[&str] = &[
     "c_c.a",
     "c_c.w",
 ];
+
+/// The optional sections of the vector and volume response (kind version 2, §5.4.3).
+pub const DRTO_VECTOR_SECTIONS: &[&str] = &[
+    "vec.scene.records",
+    "vec.scene.charts",
+    "vec.scene.values",
+    "vec.clutter.records",
+    "vec.clutter.charts",
+    "vec.clutter.values",
+    "dyn.records",
+    "dyn.charts",
+    "dyn.values",
+    "dyn.probes",
+    "dyn.inside",
+];
+
+/// Kind version of a `DRTO` with the vector and volume sections (without them: 1).
+pub const DRTO_VECTOR_KIND_VERSION: u32 = 2;
 
 /// The clutter sections, which every shard writes whole (copied by [`merge`]).
 const CLUTTER_SECTIONS: &[&str] = &[
@@ -83,11 +102,12 @@ pub fn to_asset(
     clutter: &ClutterScene,
     inputs: &DrtInputs,
     cache_key: Option<&str>,
+    vector: Option<&DrtVectorBake>,
 ) -> Result<AssetBuilder, TransportError> {
     let mut a = AssetBuilder::new(Kind::DRTO);
-    let meta = json!({
+    let mut meta = json!({
         "kind": "DRTO",
-        "kind_version": DRTO_KIND_VERSION,
+        "kind_version": if vector.is_some() { DRTO_VECTOR_KIND_VERSION } else { DRTO_KIND_VERSION },
         "tool": concat!("penumbra ", env!("CARGO_PKG_VERSION")),
         "convention": {
             "scene": "scene texels are the level's block texels in MRTL block order, each block in its MRTD shape's texel layout; l_d and the output are irradiance",
@@ -106,9 +126,76 @@ pub fn to_asset(
         "cache_key": cache_key,
         "metrics": b.metrics,
     });
+    if let Some(v) = vector {
+        meta["vector"] = json!({
+            "metrics": v.metrics,
+            "convention": {
+                "vec.scene": "per receiving block texel 4 OHLSH coefficients (MRT thesis App. B) in the texel frame of the MRTD's u_bvec (x = face u, y = face v, z = inward normal): rows = texels x 4, texel-major; delta U_b (columns: b of src, times s) and delta U_c (columns: c of the listed charts)",
+                "vec.clutter": "per clutter texel [a0, w_x, w_y, w_z]: E(m) = pi y00 a0 + (2 pi / 3) sqrt(3 / 4 pi) (w . m) for a world unit normal m; C_b (columns: b of src, times s) and C_c (columns: c)",
+                "dyn": "U_dyn: per probe of each receiving block (g^3 probes, x fastest, in receivers order; dyn.probes world positions) 9 world-frame SH radiance coefficients: rows = probes x 9; columns b of src (times s) and c of the listed charts",
+            },
+        });
+    }
     a.add_json("meta", &serde_json::to_string(&meta).map_err(err)?).map_err(err)?;
     body(&mut a, b, &mut |a| clutter_sections(a, clutter, b.params.half))?;
+    if let Some(v) = vector {
+        vector_sections(&mut a, v, b.params.half)?;
+    }
     Ok(a)
+}
+
+/// The vector and volume sections of a bake (`DRTO_VECTOR_SECTIONS`).
+fn vector_sections(a: &mut AssetBuilder, v: &DrtVectorBake, half: bool) -> Result<(), TransportError> {
+    write_vec_group(a, "vec.scene", &v.scene, half)?;
+    write_vec_group(a, "vec.clutter", &v.clutter, half)?;
+    write_vec_group(a, "dyn", &v.dyn_probes, half)?;
+    let pts: Vec<f32> = v.probes.iter().flat_map(|p| p.points.iter().flatten()).map(|&x| x as f32).collect();
+    // 0 outside clutter, 1 inside and filled from its neighbours, 2 inside and not filled
+    let inside: Vec<u8> = v
+        .probes
+        .iter()
+        .flat_map(|p| {
+            p.inside.iter().zip(&p.filled).map(|(&i, &f)| {
+                if !i {
+                    0
+                } else if f {
+                    1
+                } else {
+                    2
+                }
+            })
+        })
+        .collect();
+    a.add_f32("dyn.probes", &[inside.len(), 3], &pts).map_err(err)?;
+    a.add_u8("dyn.inside", &[inside.len()], &inside).map_err(err)?;
+    Ok(())
+}
+
+/// A list of unreduced operators: `<p>.records` u32 [R, 6] = (dst, src or 0xFFFFFFFF for
+/// chart columns, rows, cols, values offset, charts offset), `<p>.charts` u32 (the chart
+/// columns of the chart records, in record order), `<p>.values` (rows × cols each, row-major).
+fn write_vec_group(a: &mut AssetBuilder, p: &str, recs: &[VecRecord], half: bool) -> Result<(), TransportError> {
+    let mut rec = Vec::new();
+    let mut charts = Vec::new();
+    let mut vals = Vec::new();
+    for r in recs {
+        let (src, off) = match &r.cols {
+            Cols::Block(y) => (u32_of(*y)?, 0),
+            Cols::Charts(c) => {
+                let off = u32_of(charts.len())?;
+                for &j in c {
+                    charts.push(u32_of(j)?);
+                }
+                (u32::MAX, off)
+            }
+        };
+        rec.extend([u32_of(r.dst)?, src, u32_of(r.rows)?, u32_of(r.ncols())?, u32_of(vals.len())?, off]);
+        vals.extend(f32s(&r.op));
+    }
+    a.add_u32(&format!("{p}.records"), &[recs.len(), 6], &rec).map_err(err)?;
+    a.add_u32(&format!("{p}.charts"), &[charts.len()], &charts).map_err(err)?;
+    add_floats(a, &format!("{p}.values"), &vals, half)?;
+    Ok(())
 }
 
 /// Everything after `meta`; `clutter` writes the clutter sections in their place.
@@ -433,6 +520,8 @@ pub fn params_of(p: &Value) -> DrtParams {
         clutter_basis_res: u("clutter_basis_res", 1),
         seed: p["seed"].as_u64().unwrap_or(0),
         half: p["half"].as_bool().unwrap_or(true),
+        vector_rays: p["vector_rays"].as_u64().map(|x| x as usize),
+        volume_res: p["volume_res"].as_u64().map(|x| x as usize),
     }
 }
 

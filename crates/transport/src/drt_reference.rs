@@ -28,6 +28,9 @@ pub struct Receiver {
     pub point: [f64; 3],
     /// World unit normal (the side light arrives from).
     pub normal: [f64; 3],
+    /// The surface's geometric normal when `normal` is tilted (a normal-mapped surface): rays
+    /// below that surface carry no light. `None`: every ray about `normal` counts.
+    pub horizon: Option<[f64; 3]>,
 }
 
 /// Reference values at receivers.
@@ -118,7 +121,7 @@ pub fn reference(
         .map(|(i, r)| {
             let ed = direct(sc, r.block, r.point, r.normal, lights);
             let (t, bt) = penumbra_math::warp::orthonormal_basis(r.normal);
-            let o = offset(r.point, r.normal, 1e-7);
+            let o = offset(r.point, r.horizon.unwrap_or(r.normal), 1e-7);
             let mut est = [[0.0f64; 2]; 2];
             for (h, acc) in est.iter_mut().enumerate() {
                 let phi = 2.0 * core::f64::consts::PI * unit_f64(hash4(seed, STAGE, i as u64, h as u64));
@@ -126,6 +129,9 @@ pub fn reference(
                 for (k, l) in dirs.dirs.iter().enumerate() {
                     let l = [l[0] * c - l[1] * s, l[0] * s + l[1] * c, l[2]];
                     let d: [f64; 3] = core::array::from_fn(|m| l[0] * t[m] + l[1] * bt[m] + l[2] * r.normal[m]);
+                    if r.horizon.is_some_and(|h| h[0] * d[0] + h[1] * d[1] + h[2] * d[2] <= 0.0) {
+                        continue;
+                    }
                     let Some((mut b, mut p, mut n, mut rho)) = surface(sc, sc.clutter, alb, sc.cast(r.block, o, d))
                     else {
                         continue;

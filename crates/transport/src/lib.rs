@@ -33,6 +33,7 @@ pub mod drt_asset;
 pub mod drt_examples;
 pub mod drt_reference;
 pub mod drt_state;
+pub mod drt_vector;
 pub mod gather;
 pub mod interface;
 pub mod level;

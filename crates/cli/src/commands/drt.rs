@@ -16,6 +16,7 @@ use penumbra_transport::drt::{DrtDict, DrtParams, DrtShard, KcMode, bake_increme
 use penumbra_transport::drt_asset::{DrtInputs, to_asset};
 use penumbra_transport::drt_examples::example;
 use penumbra_transport::drt_state::{DrtState, StateInstance};
+use penumbra_transport::drt_vector::{DrtVectorBake, VectorMetrics, VectorParams, bake_vector};
 use penumbra_transport::level::{Level, Links};
 use penumbra_transport::level_ops::DictOps;
 use penumbra_transport::level_reference::PointLight;
@@ -316,6 +317,17 @@ pub struct DrtBakeArgs {
     /// changes the verified error by < 1e-5 relative: docs/drt.md).
     #[arg(long)]
     pub f32: bool,
+    /// Also bake the vector operators (ΔU_b⃗, ΔU_c⃗, C_b⃗ for normal maps) and the U_dyn volume
+    /// probes (MRT thesis §5.4.3; docs/drt.md, "Vector and volume response").
+    #[arg(long)]
+    pub vector: bool,
+    /// Uniform-hemisphere rays per texel of the vector operators (probes: 4× over the sphere).
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(16..=262_144))]
+    pub vector_rays: u32,
+    /// U_dyn probes per block edge with --vector (default: the dictionary's volume_res, so that
+    /// U_dyn replaces its U_bvol probes one for one).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub volume_res: Option<u32>,
 }
 
 impl DrtBakeArgs {
@@ -334,6 +346,8 @@ impl DrtBakeArgs {
             clutter_basis_res: clutter_basis_res as usize,
             seed: self.ray_seed,
             half: !self.f32,
+            vector_rays: self.vector.then_some(self.vector_rays as usize),
+            volume_res: self.volume_res.filter(|_| self.vector).map(|g| g as usize),
         }
     }
 }
@@ -438,12 +452,13 @@ fn state_instances(sc: &DrtScene) -> Vec<StateInstance> {
 /// Bakes with a state file (`--state`, and the bake config's `[drt]` stage): incrementally
 /// when the file holds a comparable bake, else in full; the file then holds this bake's sums.
 /// Returns the bake, the asset bytes, the new state's bytes and the `incremental` report.
+#[allow(clippy::type_complexity)]
 pub fn bake_scene_stateful(
     sc: &DrtScene,
     params: &DrtParams,
     state_path: &Path,
     mode: ProgressMode,
-) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Vec<u8>, Value), CliError> {
+) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Vec<u8>, Value, Option<VectorMetrics>), CliError> {
     let key = state_key(sc, params);
     let insts = state_instances(sc);
     let prev = match std::fs::read(state_path) {
@@ -511,12 +526,36 @@ pub fn bake_scene_stateful(
         }
     };
     rep.finish();
+    // the vector operators are not in the state: traced in full on every bake
+    let v = vector_of(sc, params, &b, mode)?;
+    if v.is_some() {
+        report["vector"] = json!("traced in full (the state holds the scalar operators' sums only)");
+    }
     let inputs = sc.inputs();
-    let asset = to_asset(&b, &sc.clutter, &inputs, Some(&cache_key(sc, params))).map_err(CliError::internal)?;
+    let asset =
+        to_asset(&b, &sc.clutter, &inputs, Some(&cache_key(sc, params)), v.as_ref()).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
     let sb = state.to_bytes();
     report["state_bytes"] = json!(sb.len());
-    Ok((b, bytes, sb, report))
+    Ok((b, bytes, sb, report, v.map(|v| v.metrics)))
+}
+
+/// The vector and volume operators (§5.4.3) of a whole bake's receiving blocks, when
+/// `params.vector_rays` asks for them.
+fn vector_of(
+    sc: &DrtScene,
+    params: &DrtParams,
+    b: &penumbra_transport::drt::DrtBake,
+    mode: ProgressMode,
+) -> Result<Option<DrtVectorBake>, CliError> {
+    let Some(rays) = params.vector_rays else { return Ok(None) };
+    let rep = Reporter::new("drt vector", mode);
+    let recv: Vec<usize> = b.receivers.iter().map(|r| r.block).collect();
+    let vp = VectorParams { rays, volume_res: params.volume_res.unwrap_or(sc.dict.volume_res) };
+    let v = bake_vector(&sc.level, &sc.links, &sc.dict, &sc.clutter, &recv, params.seed, vp, &rep)
+        .map_err(|e| CliError::input(anyhow!("{e}")))?;
+    rep.finish();
+    Ok(Some(v))
 }
 
 fn full_with_state(
@@ -535,26 +574,32 @@ pub fn bake_scene(
     sc: &DrtScene,
     params: &DrtParams,
     mode: ProgressMode,
-) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>), CliError> {
+) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Option<VectorMetrics>), CliError> {
     bake_scene_shard(sc, params, DrtShard::WHOLE, mode)
 }
 
-/// [`bake_scene`] for one shard.
+/// [`bake_scene`] for one shard (the vector operators need a whole bake).
 pub fn bake_scene_shard(
     sc: &DrtScene,
     params: &DrtParams,
     shard: DrtShard,
     mode: ProgressMode,
-) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>), CliError> {
+) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Option<VectorMetrics>), CliError> {
+    if shard.count > 1 && params.vector_rays.is_some() {
+        return Err(CliError::input(anyhow!(
+            "--vector needs a whole bake: the vector and volume operators are not sharded (drop --shard or --vector)"
+        )));
+    }
     let rep = Reporter::new("drt", mode);
     let b = bake_shard(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, shard, &rep)
         .map_err(|e| CliError::input(anyhow!("{e}")))?;
     rep.finish();
+    let v = vector_of(sc, params, &b, mode)?;
     let inputs = sc.inputs();
     let key = cache_key(sc, params);
-    let asset = to_asset(&b, &sc.clutter, &inputs, Some(&key)).map_err(CliError::internal)?;
+    let asset = to_asset(&b, &sc.clutter, &inputs, Some(&key), v.as_ref()).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
-    Ok((b, bytes))
+    Ok((b, bytes, v.map(|v| v.metrics)))
 }
 
 /// Runs `penumbra drt`.
@@ -575,14 +620,14 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let params = a.bake.params(a.scene.clutter_res, a.scene.clutter_basis_res);
     let output = a.output.as_deref().unwrap_or(Path::new("out.drto"));
     let t0 = Instant::now();
-    let (b, bytes, state) = match &a.state {
+    let (b, bytes, state, vector) = match &a.state {
         Some(p) => {
-            let (b, bytes, sb, rep) = bake_scene_stateful(&sc, &params, p, mode)?;
-            (b, bytes, Some((p, sb, rep)))
+            let (b, bytes, sb, rep, v) = bake_scene_stateful(&sc, &params, p, mode)?;
+            (b, bytes, Some((p, sb, rep)), v)
         }
         None => {
-            let (b, bytes) = bake_scene_shard(&sc, &params, shard, mode)?;
-            (b, bytes, None)
+            let (b, bytes, v) = bake_scene_shard(&sc, &params, shard, mode)?;
+            (b, bytes, None, v)
         }
     };
     let bake_seconds = t0.elapsed().as_secs_f64();
@@ -607,6 +652,9 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         if let Some((_, _, rep)) = &state {
             o.insert("incremental".into(), rep.clone());
         }
+        if let Some(vm) = &vector {
+            o.insert("vector".into(), serde_json::to_value(vm).map_err(CliError::internal)?);
+        }
     }
     if a.json {
         print_json(&v);
@@ -628,6 +676,12 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             bytes.len(),
             start.elapsed().as_secs_f64()
         );
+        if let Some(vm) = &vector {
+            eprintln!(
+                "  vector operators and U_dyn: {} rays per texel, {} probes ({} inside clutter), {} values",
+                vm.vector_rays, vm.probes, vm.probes_inside_clutter, vm.values
+            );
+        }
         if let Some((p, _, r)) = &state {
             if r["used"] == json!(true) {
                 eprintln!(

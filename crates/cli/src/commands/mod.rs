@@ -14,6 +14,7 @@ pub mod sweep_shadows;
 pub mod sweep_spheres;
 pub mod tables;
 pub mod verify_drt;
+pub mod verify_drt_vector;
 pub mod verify_fiv;
 pub mod verify_mrt;
 pub mod verify_shadows;

@@ -13,6 +13,7 @@ use clap::Args;
 use penumbra_asset::{AssetFile, OwnedAsset};
 use penumbra_math::progress::Progress;
 use penumbra_runtime::drt::{DrtOperators, DrtRuntime, Paths};
+use penumbra_runtime::drt_vec::DrtVector;
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
 use penumbra_transport::drt::Scene;
 use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
@@ -244,7 +245,7 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
     }
     // receivers: every scene texel, then every clutter texel (its block probed off the surface)
     let mut recv: Vec<Receiver> =
-        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn }).collect();
+        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn, horizon: None }).collect();
     let mut clutter_ok = Vec::new();
     for t in &sc.clutter.texels {
         let o = [
@@ -254,7 +255,7 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
         ];
         let b = geo.block_of(o);
         clutter_ok.push(b.is_some());
-        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal });
+        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal, horizon: None });
     }
     let m = sc.clutter.texels.len();
     let l_d: Vec<f32> = recv[..n].iter().map(|r| direct(&scene, r.block, r.point, r.normal, &lights) as f32).collect();
@@ -325,6 +326,43 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
     }
     recv.extend(boundary.iter().map(|(r, _)| *r));
 
+    // scene texels inside clutter are not seen: left out (and counted)
+    let mut keep = vec![true; n];
+    let ops = drt.operators();
+    for rc in ops.receivers.chunks_exact(3) {
+        let (b, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
+        for t in 0..cnt {
+            if ops.inpaint_mask[off + t] != 0 {
+                keep[tex.offsets[b] + t] = false;
+            }
+        }
+    }
+    // §5.4.3: the vector and volume response, when the asset carries it (`drt --vector`)
+    let mut dv = DrtVector::from_asset(&da, &mrt, ops.instances, ops.receivers, ops.chart_count() as u32)
+        .map_err(|e| CliError::input(anyhow!("DRT vector operators: {e}")))?;
+    let mrt_probe = |r: &[Receiver]| -> Result<Vec<f64>, CliError> {
+        Ok(probe_irradiance(&dict_asset, &sc, &b_one, kb, r)?.into_iter().map(|e| e * f64::from(scale)).collect())
+    };
+    let vchecks = match dv.as_mut() {
+        Some(dv) => Some(crate::commands::verify_drt_vector::build(
+            dv,
+            drt.operators(),
+            &mrt,
+            drt.coefficients(),
+            scale,
+            &geo,
+            &tex,
+            &keep,
+            &sc.clutter,
+            &mrt_probe,
+        )?),
+        None => None,
+    };
+    let v_off = recv.len();
+    if let Some(vc) = &vchecks {
+        recv.extend(vc.receivers.iter().copied());
+    }
+
     // the reference
     let rep = Reporter::new("verify drt", mode);
     let done = AtomicU64::new(0);
@@ -338,21 +376,13 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
     rep.finish();
     let reference_seconds = t_ref.elapsed().as_secs_f64();
 
-    // scene texels inside clutter are not seen: left out (and counted)
-    let mut keep = vec![true; n];
-    let ops = drt.operators();
-    for rc in ops.receivers.chunks_exact(3) {
-        let (b, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
-        for t in 0..cnt {
-            if ops.inpaint_mask[off + t] != 0 {
-                keep[tex.offsets[b] + t] = false;
-            }
-        }
-    }
     let inside = keep.iter().filter(|&&k| !k).count();
+    let vector = vchecks.as_ref().map(|vc| {
+        vc.report(&r.one_bounce[v_off..], &r.one_half_difference[v_off..], &|x, y| rel(x, y, &vec![true; x.len()]))
+    });
     let (r1, rm) = (&r.one_bounce[..n], &r.multi_bounce[..n]);
     let (rc1, rcm) = (&r.one_bounce[n..n + m], &r.multi_bounce[n..n + m]);
-    let rb1 = &r.one_bounce[n + m..];
+    let rb1 = &r.one_bounce[n + m..n + m + boundary.len()];
     let all_b = vec![true; boundary.len()];
     let per_block: Vec<Value> = (0..sc.level.blocks.len())
         .map(|b| {
@@ -395,6 +425,7 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
         "boundary_points": boundary.len(),
         "rel_error_boundary_inpainted": if boundary.is_empty() { Value::Null } else { json!(rel(&b_with, rb1, &all_b)) },
         "rel_error_boundary_without_inpainting": if boundary.is_empty() { Value::Null } else { json!(rel(&b_without, rb1, &all_b)) },
+        "vector": vector,
         "ms_runtime": ms_runtime,
         "ms_runtime_mrt": ms_mrt,
         "per_block": per_block,
@@ -482,7 +513,10 @@ fn boundary_points(
                     if 2 * back > dirs.len() {
                         continue;
                     }
-                    out.push((Receiver { block: b, point: p, normal: nn }, q.map(|x| (tex.offsets[b] + x, 0.25))));
+                    out.push((
+                        Receiver { block: b, point: p, normal: nn, horizon: None },
+                        q.map(|x| (tex.offsets[b] + x, 0.25)),
+                    ));
                 }
             }
         }
