@@ -168,7 +168,12 @@ fn corpus_v1_still_loads() {
                 }
             }
             "DRTO" => {
-                a.require_known(penumbra_transport::drt_asset::DRTO_SECTIONS).unwrap();
+                let mut known = penumbra_transport::drt_asset::DRTO_SECTIONS.to_vec();
+                let vector = meta["kind_version"] == 2;
+                if vector {
+                    known.extend_from_slice(penumbra_transport::drt_asset::DRTO_VECTOR_SECTIONS);
+                }
+                a.require_known(&known).unwrap();
                 // its dictionary and level are in the corpus too (matched by CRC-32C); the
                 // runtime validates the operators against both and evaluates them
                 let find = |ext: &str, crc: &str| {
@@ -199,6 +204,31 @@ fn corpus_v1_still_loads() {
                 // uniform unit direct light everywhere: finite, and the clutter receives light
                 assert!(s.iter().chain(&c).all(|v| v.is_finite()));
                 assert!(c.iter().sum::<f32>() > 0.0);
+                // kind_version 2: the vector and volume response reads and evaluates too
+                let ops = drt.operators();
+                let dv = penumbra_runtime::drt_vec::DrtVector::from_asset(
+                    &a,
+                    &mrt,
+                    ops.instances,
+                    ops.receivers,
+                    ops.chart_count() as u32,
+                )
+                .unwrap();
+                assert_eq!(dv.is_some(), vector);
+                if let Some(mut dv) = dv {
+                    let cc = drt.coefficients().to_vec();
+                    let (b, kb) = (mrt.coefficients().to_vec(), mrt.level().k_b);
+                    let mut sv = vec![[0.0f32; 4]; n];
+                    dv.add_scene(&b, kb, 1.0, &cc, &mut sv);
+                    let mut cv = vec![[0.0f32; 4]; m];
+                    dv.clutter(&b, kb, 1.0, &cc, &mut cv);
+                    let mut sh = vec![[0.0f32; 9]; dv.blocks.len() * dv.res.pow(3)];
+                    dv.probe_sh(&b, kb, 1.0, &cc, &mut sh);
+                    assert!(sv.iter().chain(&cv).flatten().chain(sh.iter().flatten()).all(|v| v.is_finite()));
+                    // lit walls: every probe receives light (its DC band), the clutter too
+                    assert!(sh.iter().all(|p| p[0] > 0.0));
+                    assert!(cv.iter().map(|v| v[0]).sum::<f32>() > 0.0);
+                }
             }
             "VOSS" => {
                 // every set of meta.counts reads back; weights sum to 1; samples inside the
