@@ -500,3 +500,42 @@ fn vector_operators_and_dyn_probes_beat_mrt_against_the_path_tracer() {
     assert_eq!(code, 0, "{stderr}");
     assert!(serde_json::from_str::<Value>(&stdout).unwrap()["vector"].is_null());
 }
+
+#[test]
+fn bake_config_drt_stage_takes_the_vector_operators() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let mrt = "[mrt]\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\nvector_rays = 64\nvolume_res = 2\nprobe_rays = 64\n\
+               test_lights = 3\nreference_rays = 128\nlf_spatial = 4\nlf_dir = 6\nlf_super = 2\nk_rlf = 24\nk_r = 8\n\
+               response_rays = 64\n";
+    let drt = "[drt]\nexample = \"pillars\"\nclutter_res = 4\nrays = 64\nvector_rays = 32\nvolume_res = 3\n";
+    std::fs::write(&cfg, format!("output_dir = \"out\"\n{mrt}{drt}")).unwrap();
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["stages"].as_array().unwrap().iter().any(|s| s["name"] == "drt" && s["status"] == "baked"), "{v}");
+    // the stage writes what `penumbra drt --vector` writes with the same settings
+    let out = dir.path().join("out");
+    let staged = std::fs::read(out.join("clutter.drto")).unwrap();
+    let again = dir.path().join("again.drto");
+    let (code, _, stderr) = run(penumbra()
+        .args(["drt", "--example", "pillars", "--clutter-res", "4", "--rays", "64", "--vector", "--vector-rays", "32"])
+        .args(["--volume-res", "3", "--dict"])
+        .arg(out.join("dictionary.mrtd"))
+        .arg("-o")
+        .arg(&again));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(staged == std::fs::read(&again).unwrap(), "stage and command differ");
+    let a = penumbra_asset::AssetFile::open(&again).unwrap();
+    assert_eq!(a.asset().section("dyn.probes").unwrap().dims(), [27, 3]);
+    // volume_res without vector_rays, and out of range: exit 2 naming the key
+    for (body, key) in [
+        ("[drt]\nexample = \"pillars\"\nvolume_res = 3\n", "drt.volume_res"),
+        ("[drt]\nexample = \"pillars\"\nvector_rays = 8\n", "drt.vector_rays"),
+    ] {
+        std::fs::write(&cfg, format!("output_dir = \"out2\"\n{mrt}{body}")).unwrap();
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(key), "{key}: {stderr}");
+    }
+}

@@ -433,6 +433,15 @@ pub struct DrtStage {
     /// Inpaint scene texels inside clutter (default true).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inpaint: Option<bool>,
+    /// Also bake the vector operators and the U_dyn volume probes (MRT thesis §5.4.3) with
+    /// this many uniform rays per texel, 16..=262144 (`penumbra drt --vector --vector-rays`;
+    /// absent: scalar operators only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vector_rays: Option<u32>,
+    /// U_dyn probes per block edge, 1..=16 (default: the dictionary's volume_res); needs
+    /// `vector_rays`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume_res: Option<u32>,
     /// Quality gate checked after the bake: `verify drt` on the baked operators with its
     /// defaults, exit 1 when `rel_error_mrt_drt` is above `max_rel_error`.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -318,12 +318,17 @@ fn validate_drt(d: &crate::types::DrtStage, c: &crate::types::BakeConfig, out: &
         ("drt.kdc", d.kdc, 1, 4096),
         ("drt.clutter_res", d.clutter_res, 2, 64),
         ("drt.clutter_basis_res", d.clutter_basis_res, 1, 64),
+        ("drt.vector_rays", d.vector_rays, 16, 1 << 18),
+        ("drt.volume_res", d.volume_res, 1, 16),
     ] {
         if let Some(v) = v {
             if !(lo..=hi).contains(&v) {
                 out.push(issue(key, format!("{v} is out of range (allowed: {lo}..={hi})")));
             }
         }
+    }
+    if d.volume_res.is_some() && d.vector_rays.is_none() {
+        out.push(issue("drt.volume_res", "needs `vector_rays` (the U_dyn probes come with the vector operators)"));
     }
     let (r, s) = (d.clutter_res.unwrap_or(16), d.clutter_basis_res.unwrap_or(2));
     if s > 0 && r % s != 0 {

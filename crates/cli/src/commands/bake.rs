@@ -350,6 +350,8 @@ fn run_drt(
         k_c: d.kc.map_or(defaults.k_c, |v| v as usize),
         k_dc: d.kdc.map_or(defaults.k_dc, |v| v as usize),
         inpaint: d.inpaint.unwrap_or(true),
+        vector_rays: d.vector_rays.map(|v| v as usize),
+        volume_res: d.volume_res.map(|v| v as usize),
         clutter_res: args.clutter_res as usize,
         clutter_basis_res: args.clutter_basis_res as usize,
         ..defaults
