@@ -195,11 +195,16 @@ impl<'a> DrtVector<'a> {
             .as_u8()
             .map_err(|e| bad(format!("dyn.inside: {e}")))?;
         let np = inside.len();
-        if positions.len() != 3 * np || blocks.is_empty() || np % blocks.len() != 0 {
+        // no receiving block (a level without clutter): no probes
+        let g3 = np.checked_div(blocks.len()).unwrap_or(0);
+        if positions.len() != 3 * np || g3 * blocks.len() != np || (np == 0) != blocks.is_empty() {
             return Err(bad("dyn.probes / dyn.inside do not hold g³ probes per receiving block"));
         }
-        let g3 = np / blocks.len();
-        let res = grid_res(g3).ok_or_else(|| bad(format!("{g3} probes per block is not a cube")))?;
+        let res = if np == 0 {
+            1
+        } else {
+            grid_res(g3).ok_or_else(|| bad(format!("{g3} probes per block is not a cube")))?
+        };
         let scene = VecGroup::from_asset(
             a,
             "vec.scene",
