@@ -233,3 +233,33 @@ fn bake_config_mrt_stage_bakes_then_skips_and_validates_keys() {
         assert!(stderr.contains(what), "{stderr}");
     }
 }
+
+#[test]
+fn raw_gather_is_checked_against_exact_form_factors() {
+    // `f_max_column_sum` ≤ 1 holds by construction of the Sinkhorn balance; `raw_gather` is
+    // the physical check of the gather before the balance (docs/mrt.md, "Energy"): in the
+    // closed cube every row sums to 1 (every ray lands) and the face-to-face block sums of F/ρ
+    // are the unit cube's form factors, opposite 0.19982 and adjacent 0.20004 (measured at
+    // these small settings, 4² texels per face and 512 rays: 0.20239 and 0.19940, the
+    // 4 × 4 midpoint rule's error; 0.19997 / 0.20001 at the thesis settings).
+    let dir = tempfile::tempdir().unwrap();
+    let closed = ["--dictionary", "closed-cube", "--no-interfaces"];
+    let balanced = dict_json(&closed, &dir.path().join("b.mrtd"));
+    let raw = dict_json(&[&closed[..], &["--no-balance"]].concat(), &dir.path().join("r.mrtd"));
+    let (b, r) = (&balanced["shapes"]["closed"], &raw["shapes"]["closed"]);
+    let g = &b["raw_gather"];
+    let f = |k: &str| g[k].as_f64().unwrap_or_else(|| panic!("raw_gather.{k}: {g}"));
+    assert!(
+        (f("face_ff_opposite_exact") - 0.19982).abs() < 5e-6 && (f("face_ff_adjacent_exact") - 0.20004).abs() < 5e-6
+    );
+    assert!((f("face_ff_opposite") - 0.19982).abs() < 0.005, "{g}");
+    assert!((f("face_ff_adjacent") - 0.20004).abs() < 0.002, "{g}");
+    assert!(f("face_ff_max_abs_error") < 0.006, "{g}");
+    assert!(f("row_max_abs_error") < 1e-12, "{g}");
+    assert!(f("point_face_max_abs_error") < 0.02, "{g}");
+    // measured before the balance: the same with and without it
+    assert_eq!(g, &r["raw_gather"]);
+    // what the balance does: the column bound holds with it, not without (corners)
+    assert!(b["f_max_column_sum"].as_f64().unwrap() <= 1.0 + 1e-12, "{b}");
+    assert!(r["f_max_column_sum"].as_f64().unwrap() > 1.02, "{r}");
+}

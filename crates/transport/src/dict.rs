@@ -8,8 +8,8 @@ use crate::gather::{DirectionSet, Gather, probe_sh, texel_sh, transport_matrix};
 use crate::interface::{InterfaceBake, InterfaceMetrics, InterfaceParams, ShapeInput, bake_interfaces, side_openings};
 use crate::operators::{Prior, Reduced, enrich, fallback_basis, prior_from_samples, reduce};
 use crate::prior::{DirectLight, LightLayout, SphereLight, prior_lights, test_lights};
-use crate::reference::one_bounce;
-use crate::shape::{CLOSED, DictionaryKind, Shape, Texels};
+use crate::reference::{ff_parallel_rectangles, ff_perpendicular_rectangles, one_bounce, point_polygon_form_factor};
+use crate::shape::{CLOSED, DictionaryKind, FACE_COUNT, Shape, Texels, face_axis, face_point};
 use crate::svd::{energy_count, frobenius, mul, singular_values_gram};
 use faer::{Mat, MatRef};
 use penumbra_math::ohlsh::quadratic_to_ohlsh;
@@ -240,10 +240,90 @@ pub struct ShapeMetrics {
     pub reference_noise_rel: f64,
     /// Irradiance at the unperturbed normal from `U_b⃗` against `U_b`.
     pub vector_irradiance_rel_error: f64,
-    /// Largest column sum of `F` divided by the albedo (energy: ≤ 1 means `‖F l‖₁ ≤ ρ‖l‖₁`).
+    /// Largest column sum of the stored `F` divided by the albedo (`≤ 1` means
+    /// `‖F l‖₁ ≤ ρ‖l‖₁`). With the balance on (the default) this holds by construction of the
+    /// Sinkhorn balance: it checks the balance, not the gather (see `raw_gather`).
     pub f_max_column_sum: f64,
     /// What energy balancing changed (`null` when `balance` is off).
     pub f_balance: Option<BalanceStats>,
+    /// The raw gather (before the balance) against exact form factors: the physical check
+    /// the balance cannot make true by construction.
+    pub raw_gather: RawGather,
+}
+
+/// The raw (unbalanced) one-bounce gather `F` against exact form factors (MRT thesis §3.3:
+/// `F` gathers `ρ/π·L` over each texel's cosine-weighted hemisphere). A face-constant input
+/// is read exactly by the bilinear and the exact gathers alike, so `Σ_{j∈h} F_ij / ρ` is the
+/// form factor from texel `i`'s centre to face `h`, up to the gather's ray sampling.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RawGather {
+    /// Largest `|Σ_j F_ij/ρ − Σ_walls FF(x_i → wall)|` over the texels `i` (Lambert's exact
+    /// point-to-polygon form factors; the sum is 1 in the closed cube).
+    pub row_max_abs_error: f64,
+    /// Largest `|Σ_{j∈h} F_ij/ρ − FF(x_i → h)|` over texels `i` and walls `h`.
+    pub point_face_max_abs_error: f64,
+    /// Mean over the ordered pairs of opposite walls `(g, h)` of the face-to-face form factor
+    /// measured from `F`: `(1/n_g) Σ_{i∈g} Σ_{j∈h} F_ij / ρ` (texel centres as a midpoint
+    /// rule over `g`); `null` without such a pair.
+    pub face_ff_opposite: Option<f64>,
+    /// The same over the ordered pairs of adjacent walls.
+    pub face_ff_adjacent: Option<f64>,
+    /// The exact values (unit cube): opposite 0.19982, adjacent 0.20004 (Howell C-11, C-14).
+    pub face_ff_opposite_exact: f64,
+    /// Adjacent, exact.
+    pub face_ff_adjacent_exact: f64,
+    /// Largest `|measured − exact|` over every ordered pair of walls.
+    pub face_ff_max_abs_error: f64,
+}
+
+/// [`RawGather`] of a gathered (not yet balanced) `F` with albedo `albedo`.
+pub fn raw_gather_check(tex: &Texels, f: MatRef<'_, f64>, albedo: f64) -> RawGather {
+    let walls = tex.faces.clone();
+    let poly =
+        |h: usize| [face_point(h, 0.0, 0.0), face_point(h, 1.0, 0.0), face_point(h, 1.0, 1.0), face_point(h, 0.0, 1.0)];
+    let opp_exact = ff_parallel_rectangles(1.0, 1.0, 1.0);
+    let adj_exact = ff_perpendicular_rectangles(1.0, 1.0, 1.0);
+    // per texel and wall: F's block row sum / ρ
+    let n = tex.len();
+    let mut block = vec![[0.0f64; FACE_COUNT]; n];
+    for (i, b) in block.iter_mut().enumerate() {
+        for &h in &walls {
+            b[h] = tex.face_range(h).map(|j| f[(i, j)]).sum::<f64>() / albedo;
+        }
+    }
+    let (mut row_err, mut point_err) = (0.0f64, 0.0f64);
+    let mut face = [[0.0f64; FACE_COUNT]; FACE_COUNT];
+    for (i, b) in block.iter().enumerate() {
+        let (g, _, _) = tex.coords(i);
+        let (x, nn) = (tex.position(i), tex.normal(i));
+        let mut want = 0.0;
+        for &h in walls.iter().filter(|&&h| h != g) {
+            let ff = point_polygon_form_factor(x, nn, &poly(h));
+            point_err = point_err.max((b[h] - ff).abs());
+            want += ff;
+            face[g][h] += b[h];
+        }
+        row_err = row_err.max((b.iter().sum::<f64>() - want).abs());
+    }
+    let (mut opp, mut adj, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
+    for &g in &walls {
+        for &h in walls.iter().filter(|&&h| h != g) {
+            let v = face[g][h] / tex.face_range(g).len() as f64;
+            let opposite = face_axis(g).0 == face_axis(h).0;
+            worst = worst.max((v - if opposite { opp_exact } else { adj_exact }).abs());
+            if opposite { opp.push(v) } else { adj.push(v) }
+        }
+    }
+    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    RawGather {
+        row_max_abs_error: row_err,
+        point_face_max_abs_error: point_err,
+        face_ff_opposite: mean(&opp),
+        face_ff_adjacent: mean(&adj),
+        face_ff_opposite_exact: opp_exact,
+        face_ff_adjacent_exact: adj_exact,
+        face_ff_max_abs_error: worst,
+    }
 }
 
 /// Table 3.2 of the thesis: singular values holding 80/90/95 % of `Σσ²`.
@@ -592,6 +672,7 @@ fn bake_shape(
     drop(l_d);
     let mut f =
         transport_matrix(&tex, &dirs.cosine, params.albedo, params.gather, params.seed, id, &|k| st.transport.tick(k));
+    let raw_gather = raw_gather_check(&tex, f.as_ref(), params.albedo);
     let f_balance = params.balance.then(|| balance_transport(&tex, &mut f, params.albedo));
     let before = reduce(f.as_ref(), &prior0, params.k_b)?;
     let fallback = fallback_basis(&tex, &prior0, params.fallback_modes);
@@ -661,6 +742,7 @@ fn bake_shape(
         vector_irradiance_rel_error,
         f_max_column_sum,
         f_balance,
+        raw_gather,
     };
     let bake = ShapeBake { texels: tex, sigma_d_all, s: prior.s.clone(), reduced, u_bvec, probes, u_bvol, metrics };
     Ok(ShapeWork { bake, table, red })

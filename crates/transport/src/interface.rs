@@ -39,7 +39,7 @@ use crate::lightfield::{
 use crate::operators::Reduced;
 use crate::shape::{FACE_COUNT, Shape, Texels, exit_face, face_axis, face_uv};
 use crate::sparse::Csr;
-use crate::svd::{frobenius, gram_tn, mul_tall, sym_eigen, thin_svd};
+use crate::svd::{frobenius, mul, mul_tn, sym_eigen, thin_svd};
 use faer::{Mat, MatRef};
 use penumbra_math::progress::Progress;
 use rayon::prelude::*;
@@ -145,34 +145,67 @@ pub fn side_openings(shape: &Shape) -> Vec<usize> {
 /// (bilinear texel reads; an opening gives 0). Returns `m × k`, row-major. Rows are
 /// independent (parallel in fixed chunks); each row sums in a fixed order.
 pub fn wall_lightfield_apply(tex: &Texels, face: usize, grid: LfGrid, albedo: f64, l: &[f64], k: usize) -> Vec<f64> {
-    let frame = IfaceFrame::outgoing(face);
-    let q2 = grid.sub * grid.sub;
-    let w = albedo / core::f64::consts::PI / q2 as f64;
-    let dirs: Vec<[f64; 3]> = grid.sub_directions().iter().map(|&d| frame.world(d)).collect();
-    let d2 = grid.dir * grid.dir;
+    let lf = WallLightfield::new(tex, face, grid, albedo);
     let mut out = vec![0.0; grid.len() * k];
-    out.par_chunks_mut(k * 64).enumerate().for_each(|(c, block)| {
-        for (q, dst) in block.chunks_mut(k).enumerate() {
-            let row = c * 64 + q;
+    out.par_chunks_mut(k * 64).enumerate().for_each(|(c, block)| lf.rows(c * 64, l, k, block));
+    out
+}
+
+/// One opening's lightfield resampling, evaluated row by row (MRT thesis §4.2.1): the
+/// interface bake evaluates it twice instead of holding the 82944 × 384 `H_lf` through the
+/// enrichment.
+struct WallLightfield<'a> {
+    tex: &'a Texels,
+    frame: IfaceFrame,
+    grid: LfGrid,
+    w: f64,
+    dirs: Vec<[f64; 3]>,
+}
+
+impl<'a> WallLightfield<'a> {
+    fn new(tex: &'a Texels, face: usize, grid: LfGrid, albedo: f64) -> Self {
+        let frame = IfaceFrame::outgoing(face);
+        let w = albedo / core::f64::consts::PI / (grid.sub * grid.sub) as f64;
+        let dirs = grid.sub_directions().iter().map(|&d| frame.world(d)).collect();
+        Self { tex, frame, grid, w, dirs }
+    }
+
+    /// Rows `r0..r0 + out.len()/k` into `out` (row-major, overwritten).
+    fn rows(&self, r0: usize, l: &[f64], k: usize, out: &mut [f64]) {
+        let (grid, q2) = (self.grid, self.grid.sub * self.grid.sub);
+        let d2 = grid.dir * grid.dir;
+        out.fill(0.0);
+        // a cell's supersamples land close together: sum their tap weights per texel first
+        // (a handful of distinct texels instead of 4·Q² taps), then one k-wide read each
+        let mut wt = vec![0.0f64; self.tex.len()];
+        let mut touched: Vec<usize> = Vec::with_capacity(4 * q2);
+        for (q, dst) in out.chunks_mut(k).enumerate() {
+            let row = r0 + q;
             let (sp, dk) = (row / d2, row % d2);
             let (ir, iy) = (sp % grid.spatial, sp / grid.spatial);
             let (r, y) = grid.spatial_pos(ir, iy);
-            let p = frame.point(r, y);
-            for om in &dirs[dk * q2..(dk + 1) * q2] {
-                let Some((g, u, v)) = cast(tex, p, [-om[0], -om[1], -om[2]]) else { continue };
-                for (t, bw) in tex.bilinear(g, u, v) {
-                    if bw != 0.0 {
-                        let src = &l[t * k..(t + 1) * k];
-                        let a = w * bw;
-                        for (o, s) in dst.iter_mut().zip(src) {
-                            *o += a * s;
+            let p = self.frame.point(r, y);
+            for om in &self.dirs[dk * q2..(dk + 1) * q2] {
+                let Some((g, u, v)) = cast(self.tex, p, [-om[0], -om[1], -om[2]]) else { continue };
+                for (t, bw) in self.tex.bilinear(g, u, v) {
+                    if bw > 0.0 {
+                        if wt[t] == 0.0 {
+                            touched.push(t);
                         }
+                        wt[t] += bw;
                     }
                 }
             }
+            for &t in &touched {
+                let a = self.w * wt[t];
+                wt[t] = 0.0;
+                for (o, s) in dst.iter_mut().zip(&l[t * k..(t + 1) * k]) {
+                    *o += a * s;
+                }
+            }
+            touched.clear();
         }
-    });
-    out
+    }
 }
 
 /// The same resampling as a sparse matrix (m × n), for tests and inspection.
@@ -239,10 +272,55 @@ pub fn response_texels(res: usize) -> Texels {
     t
 }
 
+/// Row access to a row-major lightfield matrix for [`response_gather`]: `dst += w · row(s)`,
+/// then `finish` (a per-column scale, for a basis stored without its `Σ̃`).
+trait LfRows: Sync {
+    fn add(&self, s: usize, w: f64, dst: &mut [f64]);
+    fn finish(&self, _dst: &mut [f64]) {}
+}
+
+struct RowsF64<'a> {
+    x: &'a [f64],
+    k: usize,
+}
+
+impl LfRows for RowsF64<'_> {
+    #[inline]
+    fn add(&self, s: usize, w: f64, dst: &mut [f64]) {
+        for (o, v) in dst.iter_mut().zip(&self.x[s * self.k..(s + 1) * self.k]) {
+            *o += w * v;
+        }
+    }
+}
+
+/// `H_rlf = Ũ Σ̃` with `Ũ` stored in f32: `F (Ũ Σ̃) = (F Ũ) Σ̃`.
+struct RowsBasis<'a> {
+    u: &'a Tall32,
+    sig: &'a [f64],
+}
+
+impl LfRows for RowsBasis<'_> {
+    #[inline]
+    fn add(&self, s: usize, w: f64, dst: &mut [f64]) {
+        for (o, v) in dst.iter_mut().zip(self.u.row(s)) {
+            *o += w * f64::from(*v);
+        }
+    }
+    fn finish(&self, dst: &mut [f64]) {
+        for (o, s) in dst.iter_mut().zip(self.sig) {
+            *o *= s;
+        }
+    }
+}
+
 /// `G = F_rlf X`: irradiance at the canonical response texels from lightfields (columns of
 /// `x`, row-major `m × k`) entering through −Z, by `rays` cosine gathers per texel with
 /// interpolated lightfield reads: `E = (π/N) Σ L`. Returns row-major `5R² × k`.
 pub fn response_gather(res: usize, grid: LfGrid, x: &[f64], k: usize, rays: usize, seed: u64) -> Vec<f64> {
+    gather_rows(res, grid, &RowsF64 { x, k }, k, rays, seed)
+}
+
+fn gather_rows(res: usize, grid: LfGrid, x: &dyn LfRows, k: usize, rays: usize, seed: u64) -> Vec<f64> {
     let tex = response_texels(res);
     let dirs = DirectionSet::cosine(rays);
     let fa = IfaceFrame::incoming(CANONICAL_ENTRY);
@@ -266,12 +344,10 @@ pub fn response_gather(res: usize, grid: LfGrid, x: &[f64], k: usize, rays: usiz
                 if w == 0.0 {
                     continue;
                 }
-                let src = &x[s * k..(s + 1) * k];
-                for (o, v) in dst.iter_mut().zip(src) {
-                    *o += w * v;
-                }
+                x.add(s, w, dst);
             }
         }
+        x.finish(dst);
         dst.iter_mut().for_each(|o| *o *= scale);
     });
     out
@@ -312,37 +388,187 @@ fn to_row_major(m: MatRef<'_, f64>) -> Vec<f64> {
     v
 }
 
-fn from_row_major(v: &[f64], r: usize, c: usize) -> Mat<f64> {
-    Mat::from_fn(r, c, |i, j| v[i * c + j])
+/// Rows per chunk of the streamed products over the lightfield samples: fixed (not tied to
+/// the thread count), so every sum is the same bits for any `--threads`.
+const ROWS: usize = 1024;
+
+/// Chunks computed side by side before their partial results are combined in chunk order:
+/// bounds what is held at once (a chunk's `Xᵀ X` is 2 MB at `4·k_rlf` = 512 columns).
+const BATCH: usize = 4;
+
+/// Column block of the symmetric Gram products (only blocks on and above the diagonal are
+/// multiplied).
+const GRAM_BLOCK: usize = 128;
+
+/// A tall matrix stored row-major in f32 (the lightfields `H_lf` and the bases `Ũ`: 82944
+/// rows at the thesis's resolution, MRT thesis §3.6.1). Storage only: every product reads it
+/// into f64 chunks and computes in f64 (DESIGN §4).
+#[derive(Debug, Clone)]
+struct Tall32 {
+    cols: usize,
+    data: Vec<f32>,
 }
 
-/// Copies a row-major `m × c` block into columns `c0..c0+c` of `x`.
-fn put_columns(x: &mut Mat<f64>, c0: usize, v: &[f64], c: usize) {
-    for i in 0..x.nrows() {
-        for j in 0..c {
-            x[(i, c0 + j)] = v[i * c + j];
+impl Tall32 {
+    fn zeros(rows: usize, cols: usize) -> Self {
+        Self { cols, data: vec![0.0; rows * cols] }
+    }
+
+    #[inline]
+    fn row(&self, i: usize) -> &[f32] {
+        &self.data[i * self.cols..(i + 1) * self.cols]
+    }
+
+    /// Rows `r0..r0+len` in f64, row-major (view it with [`rm`]).
+    fn chunk(&self, r0: usize, len: usize) -> Vec<f64> {
+        self.data[r0 * self.cols..(r0 + len) * self.cols].iter().map(|&v| f64::from(v)).collect()
+    }
+
+    /// Stores the f64 rows `r0..r0+c.nrows()` (rounded to f32).
+    fn put(&mut self, r0: usize, c: MatRef<'_, f64>) {
+        for i in 0..c.nrows() {
+            let row = &mut self.data[(r0 + i) * self.cols..(r0 + i + 1) * self.cols];
+            for (j, d) in row.iter_mut().enumerate() {
+                *d = c[(i, j)] as f32;
+            }
+        }
+    }
+
+    /// Negates the columns whose flag is set (exact in any precision).
+    fn flip(&mut self, neg: &[bool]) {
+        if !neg.iter().any(|&n| n) {
+            return;
+        }
+        for row in self.data.chunks_exact_mut(self.cols) {
+            for (d, &n) in row.iter_mut().zip(neg) {
+                if n {
+                    *d = -*d;
+                }
+            }
         }
     }
 }
 
-/// Leading `k` left singular vectors of `X W` (`W = diag(w)`, one weight per column) and all
-/// its singular values, from the eigen-decomposition of `W XᵀX W` (one chunked Gram of the
-/// whole tall matrix, `u_i = X W v_i / σ_i`).
-fn basis_weighted(x: MatRef<'_, f64>, w: &[f64], k: usize) -> Result<(Mat<f64>, Vec<f64>), TransportError> {
+/// A row-major `rows × cols` slice as a matrix view.
+fn rm(v: &[f64], cols: usize) -> MatRef<'_, f64> {
+    MatRef::from_row_major_slice(v, v.len() / cols.max(1), cols)
+}
+
+/// Runs `map` over the row chunks of an `rows`-row matrix (parallel within batches of
+/// [`BATCH`]) and hands each result to `fold` in chunk order: the streamed form of a product
+/// over the rows, with the same result for any thread count.
+fn stream<T: Send>(rows: usize, map: impl Fn(usize, usize) -> T + Sync, mut fold: impl FnMut(usize, T)) {
+    let n = rows.div_ceil(ROWS);
+    let mut c0 = 0;
+    while c0 < n {
+        let c1 = (c0 + BATCH).min(n);
+        let parts: Vec<T> = (c0..c1)
+            .into_par_iter()
+            .map(|c| {
+                let r0 = c * ROWS;
+                map(r0, ROWS.min(rows - r0))
+            })
+            .collect();
+        for (c, p) in (c0..c1).zip(parts) {
+            fold(c * ROWS, p);
+        }
+        c0 = c1;
+    }
+}
+
+/// `XᵀX` of a row chunk, only its blocks on and above the diagonal ([`GRAM_BLOCK`]); the
+/// caller mirrors the sum ([`mirror_upper`]).
+fn gram_upper(x: MatRef<'_, f64>) -> Mat<f64> {
     let n = x.ncols();
-    let mut g = gram_tn(x, x);
-    for j in 0..n {
-        for i in 0..n {
-            g[(i, j)] *= w[i] * w[j];
+    let mut g = Mat::<f64>::zeros(n, n);
+    for b0 in (0..n).step_by(GRAM_BLOCK) {
+        let bl = GRAM_BLOCK.min(n - b0);
+        for c0 in (b0..n).step_by(GRAM_BLOCK) {
+            let cl = GRAM_BLOCK.min(n - c0);
+            let blk = mul_tn(x.subcols(b0, bl), x.subcols(c0, cl));
+            g.as_mut().submatrix_mut(b0, c0, bl, cl).copy_from(blk.as_ref());
         }
     }
-    let (vals, vecs) = sym_eigen(g.as_ref())?;
+    g
+}
+
+/// Copies the blocks above the diagonal of a [`gram_upper`] sum to below it.
+fn mirror_upper(g: &mut Mat<f64>) {
+    let n = g.nrows();
+    for j in 0..n {
+        for i in (j / GRAM_BLOCK + 1) * GRAM_BLOCK..n {
+            g[(i, j)] = g[(j, i)];
+        }
+    }
+}
+
+/// Running canonical sign of each column (largest-magnitude entry positive, the first on
+/// ties, as [`crate::svd::canonical_columns`]) over chunks seen in row order.
+struct SignTracker {
+    mag: Vec<f64>,
+    neg: Vec<bool>,
+}
+
+impl SignTracker {
+    fn new(k: usize) -> Self {
+        Self { mag: vec![-1.0; k], neg: vec![false; k] }
+    }
+
+    fn see(&mut self, c: MatRef<'_, f64>) {
+        for j in 0..c.ncols() {
+            for i in 0..c.nrows() {
+                let a = c[(i, j)].abs();
+                if a > self.mag[j] {
+                    self.mag[j] = a;
+                    self.neg[j] = c[(i, j)] < 0.0;
+                }
+            }
+        }
+    }
+}
+
+/// The eigen-decomposition of a weighted Gram matrix `W G W` (`W = diag(w)`): all singular
+/// values `σ` of `X W` and the map `B = W V_k Σ_k⁻¹` (n × k) with `X W V_k Σ_k⁻¹ = Ũ_k`,
+/// `k ≤ k_max` capped at the numerical rank.
+fn weighted_basis_map(g: &Mat<f64>, w: &[f64], k_max: usize) -> Result<(Mat<f64>, Vec<f64>), TransportError> {
+    let n = g.nrows();
+    let gw = Mat::from_fn(n, n, |i, j| g[(i, j)] * w[i] * w[j]);
+    let (vals, vecs) = sym_eigen(gw.as_ref())?;
     let sigma: Vec<f64> = vals.iter().map(|&l| l.max(0.0).sqrt()).collect();
-    let k = k.min(crate::svd::numerical_rank(&sigma, 1e-7));
-    let v = Mat::from_fn(n, k, |r, c| vecs[(r, c)] * w[r] / sigma[c]);
-    let mut u = mul_tall(x, v.as_ref());
-    crate::svd::canonical_columns(&mut u);
-    Ok((u, sigma))
+    let k = k_max.min(crate::svd::numerical_rank(&sigma, 1e-7));
+    Ok((Mat::from_fn(n, k, |r, c| vecs[(r, c)] * w[r] / sigma[c]), sigma))
+}
+
+/// Row `i` of `P X` for a row-major f32 `X` (`P` sparse), accumulated in f64.
+#[inline]
+fn sparse_row(p: &Csr, x: &Tall32, i: usize, out: &mut [f64]) {
+    out.fill(0.0);
+    for e in p.ptr[i]..p.ptr[i + 1] {
+        let v = p.val[e];
+        for (o, s) in out.iter_mut().zip(x.row(p.idx[e] as usize)) {
+            *o += v * f64::from(*s);
+        }
+    }
+}
+
+/// Rows `r0..r0+len` of `[Ũ Σ̃, P_↑ Ũ Σ̃, P_← Ũ Σ̃, P_→ Ũ Σ̃]` (len × 4k, row-major): App. A's
+/// enrichment matrix, the basis and its three propagations (`P Ũ Σ̃ = (P Ũ) Σ̃`).
+fn enrichment_chunk(u: &Tall32, sig: &[f64], props: &[Csr], r0: usize, len: usize) -> Vec<f64> {
+    let k = u.cols;
+    let mut x = vec![0.0; len * 4 * k];
+    for (i, xr) in x.chunks_exact_mut(4 * k).enumerate() {
+        let (own, turns) = xr.split_at_mut(k);
+        for ((d, v), s) in own.iter_mut().zip(u.row(r0 + i)).zip(sig) {
+            *d = f64::from(*v) * s;
+        }
+        for (p, out) in props.iter().zip(turns.chunks_exact_mut(k)) {
+            sparse_row(p, u, r0 + i, out);
+            for (d, s) in out.iter_mut().zip(sig) {
+                *d *= s;
+            }
+        }
+    }
+    x
 }
 
 /// `‖(I − UUᵀ)X‖/‖X‖` from `UᵀX` and `‖X‖`, for orthonormal `U`.
@@ -353,8 +579,24 @@ fn outside_from(utx: MatRef<'_, f64>, norm_x: f64) -> f64 {
     (1.0 - (frobenius(utx) / norm_x).powi(2)).max(0.0).sqrt()
 }
 
+/// Squared Frobenius norm of columns `c0..c0+n` of `x`.
+fn norm2_cols(x: MatRef<'_, f64>, c0: usize, n: usize) -> f64 {
+    let s = frobenius(x.subcols(c0, n));
+    s * s
+}
+
 /// Bakes the interface operators of the shapes (the dictionary's, in order), for a
 /// dictionary baked with albedo `albedo` and `face_res` texels per edge.
+///
+/// Memory (MRT thesis §3.6.1 resolution, 82944 lightfield samples): the raw lightfields
+/// `H_lf` (82944 × 384) and the bases `Ũ` (82944 × 128) are stored in f32, and every product
+/// streams them in row chunks of [`ROWS`] and computes in f64. `H_lf` is held only for its
+/// Gram matrix and the first basis, then dropped; the final `ŨᵀH_lf` evaluates the
+/// lightfields again chunk by chunk (rounded to f32 as stored, so the same values). The
+/// enrichment matrix `[H_rlf, L_temp]` (82944 × 512) is never materialised: its Gram matrix
+/// is accumulated chunk by chunk and its chunks recomputed (a sparse product) for
+/// `Ũ = X W V Σ⁻¹`. Peak ≈ 170 MB above the shape bakes instead of ≈ 1 GB
+/// (docs/benchmarks.md).
 pub fn bake_interfaces(
     shapes: &[ShapeInput<'_>],
     sigma_m: &[Vec<f64>],
@@ -382,7 +624,7 @@ pub fn bake_interfaces(
         done += 1;
         progress.update("interfaces", done, steps);
     };
-    // 1. raw lightfields H_lf, one block of k_b columns per interface, side by side
+    // 1. raw lightfields H_lf (§4.2.1), one block of k_b columns per interface, side by side
     let widths: Vec<usize> = list.iter().map(|&(s, _)| shapes[s].reduced.l_imp.ncols()).collect();
     let offs: Vec<usize> = widths
         .iter()
@@ -393,11 +635,36 @@ pub fn bake_interfaces(
         })
         .collect();
     let total: usize = widths.iter().sum();
-    let mut h_all = Mat::<f64>::zeros(m, total);
-    for (i, &(s, f)) in list.iter().enumerate() {
-        let l = to_row_major(shapes[s].reduced.l_imp.as_ref());
-        let h = wall_lightfield_apply(shapes[s].texels, f, grid, albedo, &l, widths[i]);
-        put_columns(&mut h_all, offs[i], &h, widths[i]);
+    let lfs: Vec<(WallLightfield<'_>, Vec<f64>)> = list
+        .iter()
+        .map(|&(s, f)| {
+            (WallLightfield::new(shapes[s].texels, f, grid, albedo), to_row_major(shapes[s].reduced.l_imp.as_ref()))
+        })
+        .collect();
+    // rows r0..r0+len of H_lf (len × total, row-major), each value rounded to f32 as stored
+    let h_rows = |r0: usize, len: usize| -> Vec<f64> {
+        let mut h = vec![0.0; len * total];
+        let mut part = Vec::new();
+        for (i, (lf, l)) in lfs.iter().enumerate() {
+            part.resize(len * widths[i], 0.0);
+            lf.rows(r0, l, widths[i], &mut part);
+            for (dst, src) in h.chunks_exact_mut(total).zip(part.chunks_exact(widths[i])) {
+                for (d, v) in dst[offs[i]..offs[i] + widths[i]].iter_mut().zip(src) {
+                    *d = f64::from(*v as f32);
+                }
+            }
+        }
+        h
+    };
+    let mut h_all = Tall32::zeros(m, total);
+    for (i, (lf, l)) in lfs.iter().enumerate() {
+        let mut h = vec![0.0; m * widths[i]];
+        h.par_chunks_mut(widths[i] * 64).enumerate().for_each(|(c, block)| lf.rows(c * 64, l, widths[i], block));
+        for (dst, src) in h_all.data.chunks_exact_mut(total).zip(h.chunks_exact(widths[i])) {
+            for (d, v) in dst[offs[i]..offs[i] + widths[i]].iter_mut().zip(src) {
+                *d = *v as f32;
+            }
+        }
         tick(progress);
     }
     // 2. eq. 4.1: per-element scale of its columns
@@ -406,60 +673,154 @@ pub fn bake_interfaces(
     let scale: Vec<f64> =
         sums.iter().map(|&e| if e > 0.0 { (sum_total / (e * sums.len() as f64)).sqrt() } else { 0.0 }).collect();
     let col_w: Vec<f64> = list.iter().zip(&widths).flat_map(|(&(s, _), &w)| std::iter::repeat_n(scale[s], w)).collect();
-    // 3. basis of the normalised H_lf
-    let (mut u, sigma_lf) = basis_weighted(h_all.as_ref(), &col_w, p.k_rlf)?;
+    // 3. basis of the normalised H_lf (§3.4.1): Gram streamed over the rows
+    let mut gh = Mat::<f64>::zeros(total, total);
+    stream(m, |r0, len| gram_upper(rm(&h_all.chunk(r0, len), total)), |_, g| gh += g);
+    mirror_upper(&mut gh);
+    let (b0, sigma_lf) = weighted_basis_map(&gh, &col_w, p.k_rlf)?;
+    let k0 = b0.ncols();
+    let mut signs = SignTracker::new(k0);
+    // Ũ₀ = H W V Σ⁻¹, and Ũ₀ᵀH for the share of H_lf it captures (signs applied after). Row
+    // r of Ũ₀ needs row r of H only, so Ũ₀ (k0 ≤ total columns) overwrites H in place: a
+    // batch's rows land in rows of H that this batch or an earlier one has read.
+    let mut uth0 = Mat::<f64>::zeros(k0, total);
+    let n_chunks = m.div_ceil(ROWS);
+    let mut c0 = 0;
+    while c0 < n_chunks {
+        let c1 = (c0 + BATCH).min(n_chunks);
+        let parts: Vec<(Mat<f64>, Mat<f64>)> = (c0..c1)
+            .into_par_iter()
+            .map(|c| {
+                let r0 = c * ROWS;
+                let hc = h_all.chunk(r0, ROWS.min(m - r0));
+                let uc = mul(rm(&hc, total), b0.as_ref());
+                let p = mul_tn(uc.as_ref(), rm(&hc, total));
+                (uc, p)
+            })
+            .collect();
+        for (c, (uc, p)) in (c0..c1).zip(parts) {
+            signs.see(uc.as_ref());
+            let r0 = c * ROWS;
+            for i in 0..uc.nrows() {
+                for j in 0..k0 {
+                    h_all.data[(r0 + i) * k0 + j] = uc[(i, j)] as f32;
+                }
+            }
+            uth0 += p;
+        }
+        c0 = c1;
+    }
+    // H_lf is evaluated again for the final coordinates (one more lightfield pass) rather
+    // than held through the enrichment
+    let mut u = h_all;
+    u.cols = k0;
+    u.data.truncate(m * k0);
+    u.data.shrink_to_fit();
+    u.flip(&signs.neg);
+    for (i, &n) in signs.neg.iter().enumerate() {
+        if n {
+            uth0.row_mut(i).iter_mut().for_each(|x| *x = -*x);
+        }
+    }
     tick(progress);
-    let col_norm2: Vec<f64> = (0..total).map(|j| h_all.col(j).iter().map(|x| x * x).sum::<f64>()).collect();
-    let h_norm2: f64 = col_norm2.iter().zip(&col_w).map(|(n, w)| n * w * w).sum();
+    let h_norm2: f64 = (0..total).map(|j| gh[(j, j)] * col_w[j] * col_w[j]).sum();
+    drop(gh);
     // share of the normalised H_lf outside the basis, from UᵀH
     let captured = |uth: MatRef<'_, f64>| -> f64 {
         let inside: f64 = (0..total).map(|j| uth.col(j).iter().map(|x| x * x).sum::<f64>() * col_w[j] * col_w[j]).sum();
         (1.0 - inside / h_norm2).max(0.0).sqrt()
     };
-    let lf_before = captured(gram_tn(u.as_ref(), h_all.as_ref()).as_ref());
-    let k0 = u.ncols();
+    let lf_before = captured(uth0.as_ref());
     let energy: f64 = sigma_lf.iter().map(|x| x * x).sum();
     let lightfield_energy_captured = sigma_lf[..k0].iter().map(|x| x * x).sum::<f64>() / energy.max(f64::MIN_POSITIVE);
     let mut sig: Vec<f64> = sigma_lf[..k0].to_vec();
     let props: Vec<Csr> = Turn::ALL.par_iter().map(|&t| propagation(grid, t)).collect();
     tick(progress);
-    let scaled = |u: &Mat<f64>, s: &[f64]| Mat::from_fn(u.nrows(), u.ncols(), |i, j| u[(i, j)] * s[j]);
-    let propagate = |h: &Mat<f64>| -> Vec<Vec<f64>> {
-        let x = to_row_major(h.as_ref());
-        props.iter().map(|pr| pr.apply(&x, h.ncols())).collect()
-    };
-    let norm_rm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let mut prop_before = [0.0; 3];
-    // 3b. enrichment (App. A): [H_rlf, L_temp] at unit Frobenius norm each
+    // 3b. enrichment (App. A): X = [H_rlf, L_temp], each part at unit Frobenius norm. X's
+    // Gram matrix and norms are accumulated over row chunks; its chunks are recomputed for
+    // the new basis Ũ = X W V Σ⁻¹ (cheap: a sparse product per chunk).
     for it in 0..p.enrich {
-        let k = u.ncols();
-        let a = scaled(&u, &sig);
-        let lt = propagate(&a);
-        let mut x = Mat::<f64>::zeros(m, 4 * k);
-        x.as_mut().subcols_mut(0, k).copy_from(a.as_ref());
-        for (i, l) in lt.iter().enumerate() {
-            put_columns(&mut x, (i + 1) * k, l, k);
-        }
-        if it == 0 {
-            let utx = gram_tn(u.as_ref(), x.as_ref());
+        let k = u.cols;
+        let first = it == 0;
+        let mut gx = Mat::<f64>::zeros(4 * k, 4 * k);
+        let mut utx = Mat::<f64>::zeros(k, 4 * k);
+        let mut n2 = [0.0f64; 4];
+        stream(
+            m,
+            |r0, len| {
+                let xv = enrichment_chunk(&u, &sig, &props, r0, len);
+                let x = rm(&xv, 4 * k);
+                let g = gram_upper(x);
+                let ut = first.then(|| mul_tn(rm(&u.chunk(r0, len), k), x));
+                let n: [f64; 4] = core::array::from_fn(|b| norm2_cols(x, b * k, k));
+                (g, ut, n)
+            },
+            |_, (g, ut, n)| {
+                gx += g;
+                if let Some(ut) = ut {
+                    utx += ut;
+                }
+                for (a, b) in n2.iter_mut().zip(n) {
+                    *a += b;
+                }
+            },
+        );
+        mirror_upper(&mut gx);
+        if first {
             for (i, e) in prop_before.iter_mut().enumerate() {
-                *e = outside_from(utx.as_ref().subcols((i + 1) * k, k), norm_rm(&lt[i]));
+                *e = outside_from(utx.as_ref().subcols((i + 1) * k, k), n2[i + 1].sqrt());
             }
         }
         tick(progress);
-        let na = frobenius(a.as_ref());
-        let nb = lt.iter().map(|l| norm_rm(l).powi(2)).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
+        let na = n2[0].sqrt().max(f64::MIN_POSITIVE);
+        let nb = (n2[1] + n2[2] + n2[3]).sqrt().max(f64::MIN_POSITIVE);
         let w: Vec<f64> = (0..4 * k).map(|j| if j < k { 1.0 / na } else { 1.0 / nb }).collect();
-        let (nu, ns) = basis_weighted(x.as_ref(), &w, p.k_rlf)?;
+        let (bx, ns) = weighted_basis_map(&gx, &w, p.k_rlf)?;
+        drop(gx);
+        let kn = bx.ncols();
+        let mut nu = Tall32::zeros(m, kn);
+        let mut signs = SignTracker::new(kn);
+        stream(
+            m,
+            |r0, len| mul(rm(&enrichment_chunk(&u, &sig, &props, r0, len), 4 * k), bx.as_ref()),
+            |r0, c| {
+                signs.see(c.as_ref());
+                nu.put(r0, c.as_ref());
+            },
+        );
+        nu.flip(&signs.neg);
         // keep the basis on the lightfields' physical scale
-        sig = ns[..nu.ncols()].iter().map(|x| x * na).collect();
+        sig = ns[..kn].iter().map(|x| x * na).collect();
         u = nu;
         tick(progress);
     }
-    let k = u.ncols();
-    let h_rlf = scaled(&u, &sig);
-    // 4. operators in the coordinates c = Σ̃⁻¹Ũᵀh
-    let uth = gram_tn(u.as_ref(), h_all.as_ref());
+    let k = u.cols;
+    // 4. operators in the coordinates c = Σ̃⁻¹Ũᵀh: ŨᵀH_lf (H_lf evaluated again, rounded as
+    // stored), and ŨᵀP_turn H_rlf with the propagated basis's norms, in one streamed pass
+    let mut uth = Mat::<f64>::zeros(k, total);
+    let mut utl: [Mat<f64>; 3] = core::array::from_fn(|_| Mat::<f64>::zeros(k, k));
+    let mut l2 = [0.0f64; 3];
+    stream(
+        m,
+        |r0, len| {
+            let ucv = u.chunk(r0, len);
+            let uc = rm(&ucv, k);
+            let uh = mul_tn(uc, rm(&h_rows(r0, len), total));
+            let xv = enrichment_chunk(&u, &sig, &props, r0, len);
+            let x = rm(&xv, 4 * k);
+            let ul: [Mat<f64>; 3] = core::array::from_fn(|t| mul_tn(uc, x.subcols((t + 1) * k, k)));
+            let n: [f64; 3] = core::array::from_fn(|t| norm2_cols(x, (t + 1) * k, k));
+            (uh, ul, n)
+        },
+        |_, (uh, ul, n)| {
+            uth += uh;
+            for t in 0..3 {
+                utl[t] += &ul[t];
+                l2[t] += n[t];
+            }
+        },
+    );
     let lightfield_rel_error = captured(uth.as_ref());
     let coords = |utx: MatRef<'_, f64>| Mat::from_fn(k, utx.ncols(), |i, j| utx[(i, j)] / sig[i]);
     let mut interfaces = Vec::with_capacity(list.len());
@@ -471,23 +832,15 @@ pub fn bake_interfaces(
             u_r_index: u_r_index(shapes[s].texels, f),
         });
     }
-    drop(h_all);
-    let lt = propagate(&h_rlf);
-    let mut propagation_rel_error = [0.0; 3];
-    let mut r_turn: Vec<Mat<f64>> = Vec::with_capacity(3);
-    for (i, l) in lt.iter().enumerate() {
-        let utl = gram_tn(u.as_ref(), from_row_major(l, m, k).as_ref());
-        propagation_rel_error[i] = outside_from(utl.as_ref(), norm_rm(l));
-        r_turn.push(coords(utl.as_ref()));
-    }
+    let propagation_rel_error: [f64; 3] = core::array::from_fn(|t| outside_from(utl[t].as_ref(), l2[t].sqrt()));
     if p.enrich == 0 {
         prop_before = propagation_rel_error;
     }
-    let r_turn: [Mat<f64>; 3] = [r_turn[0].clone(), r_turn[1].clone(), r_turn[2].clone()];
+    let r_turn: [Mat<f64>; 3] = core::array::from_fn(|t| coords(utl[t].as_ref()));
     tick(progress);
-    // response: G = F_rlf H_rlf, U_r, T_rlf→r
-    let x = to_row_major(h_rlf.as_ref());
-    let g = from_row_major(&response_gather(face_res, grid, &x, k, p.response_rays, seed), 5 * face_res * face_res, k);
+    // response (§4.2.3): G = F_rlf H_rlf, U_r, T_rlf→r
+    let gv = gather_rows(face_res, grid, &RowsBasis { u: &u, sig: &sig }, k, p.response_rays, seed);
+    let g = Mat::from_fn(5 * face_res * face_res, k, |i, j| gv[i * k + j]);
     let d = thin_svd(g.as_ref())?;
     let kr = p.k_r.min(crate::svd::numerical_rank(&d.s, 1e-12)).max(1).min(d.s.len());
     let u_r = Mat::from_fn(g.nrows(), kr, |i, j| d.u[(i, j)]);

@@ -37,6 +37,33 @@ pub fn point_polygon_form_factor(x: [f64; 3], n: [f64; 3], poly: &[[f64; 3]]) ->
     (sum / (2.0 * core::f64::consts::PI)).abs()
 }
 
+/// Form factor between two directly opposed, parallel `a × b` rectangles a distance `c`
+/// apart (Howell's catalogue, configuration C-11; exact): 0.19982 for opposite faces of a
+/// cube.
+pub fn ff_parallel_rectangles(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (x2, y2) = (x * x, y * y);
+    let t = 0.5 * ((1.0 + x2) * (1.0 + y2) / (1.0 + x2 + y2)).ln()
+        + x * (1.0 + y2).sqrt() * (x / (1.0 + y2).sqrt()).atan()
+        + y * (1.0 + x2).sqrt() * (y / (1.0 + x2).sqrt()).atan()
+        - x * x.atan()
+        - y * y.atan();
+    2.0 / (core::f64::consts::PI * x * y) * t
+}
+
+/// Form factor from a `w × l` rectangle to an `h × l` rectangle that shares its edge of length
+/// `l` at a right angle (Howell's catalogue, configuration C-14; exact): 0.20004 between
+/// adjacent faces of a cube.
+pub fn ff_perpendicular_rectangles(w: f64, h: f64, l: f64) -> f64 {
+    let (hh, ww) = (h / l, w / l);
+    let (h2, w2) = (hh * hh, ww * ww);
+    let s = (h2 + w2).sqrt();
+    let ln = ((1.0 + w2) * (1.0 + h2) / (1.0 + w2 + h2)).ln()
+        + w2 * (w2 * (1.0 + w2 + h2) / ((1.0 + w2) * (w2 + h2))).ln()
+        + h2 * (h2 * (1.0 + h2 + w2) / ((1.0 + h2) * (h2 + w2))).ln();
+    (ww * (1.0 / ww).atan() + hh * (1.0 / hh).atan() - s * (1.0 / s).atan() + 0.25 * ln) / (core::f64::consts::PI * ww)
+}
+
 /// A path-traced one-bounce solution for a set of lights.
 #[derive(Debug, Clone)]
 pub struct OneBounce {
@@ -143,5 +170,32 @@ mod tests {
             sum += point_polygon_form_factor(x, n, &poly);
         }
         assert!((sum - 1.0).abs() < 1e-12, "{sum}");
+    }
+
+    #[test]
+    fn rectangle_form_factors_match_the_cube_and_numerical_integration() {
+        use penumbra_math::quadrature::GaussLegendre;
+        let (opp, adj) = (ff_parallel_rectangles(1.0, 1.0, 1.0), ff_perpendicular_rectangles(1.0, 1.0, 1.0));
+        // the textbook values for a unit cube, and a closed cube's sum rule
+        assert!((opp - 0.19982).abs() < 5e-6 && (adj - 0.20004).abs() < 5e-6, "{opp} {adj}");
+        assert!((opp + 4.0 * adj - 1.0).abs() < 1e-12, "{}", opp + 4.0 * adj);
+        // area average of Lambert's point-to-polygon form factor over the source (an
+        // independent route), for other proportions too; the adjacent case's integrand has a
+        // log-singular slope at the shared edge, hence the looser tolerance
+        let gl = GaussLegendre::new(48);
+        let area_avg = |w: f64, l: f64, n: [f64; 3], at: &dyn Fn(f64, f64) -> [f64; 3], poly: &[[f64; 3]]| {
+            gl.integrate(0.0, w, |u| gl.integrate(0.0, l, |v| point_polygon_form_factor(at(u, v), n, poly))) / (w * l)
+        };
+        let (a, b, c) = (2.0, 1.0, 0.5);
+        let top = [[0.0, c, 0.0], [a, c, 0.0], [a, c, b], [0.0, c, b]];
+        let got = area_avg(a, b, [0.0, 1.0, 0.0], &|u, v| [u, 0.0, v], &top);
+        assert!((got - ff_parallel_rectangles(a, b, c)).abs() < 1e-9, "{got}");
+        // source w × l in the floor (x ∈ [0, w], z ∈ [0, l]), target h × l in the wall x = 0
+        let (w, h, l) = (0.7, 1.3, 1.1);
+        let wall = [[0.0, 0.0, 0.0], [0.0, h, 0.0], [0.0, h, l], [0.0, 0.0, l]];
+        let got = area_avg(w, l, [0.0, 1.0, 0.0], &|u, v| [u, 0.0, v], &wall);
+        assert!((got - ff_perpendicular_rectangles(w, h, l)).abs() < 1e-4, "{got}");
+        // reciprocity: A₁F₁₂ = A₂F₂₁
+        assert!((w * ff_perpendicular_rectangles(w, h, l) - h * ff_perpendicular_rectangles(h, w, l)).abs() < 1e-14);
     }
 }

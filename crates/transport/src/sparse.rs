@@ -51,14 +51,27 @@ impl Csr {
                             val.push(v);
                         }
                     }
+                    // drop exact zeros (sums that cancel included; sorted order is kept)
+                    let mut w = start;
+                    for r in start..idx.len() {
+                        if val[r] != 0.0 {
+                            idx[w] = idx[r];
+                            val[w] = val[r];
+                            w += 1;
+                        }
+                    }
+                    idx.truncate(w);
+                    val.truncate(w);
                     lens.push(idx.len() - start);
                 }
                 (lens, idx, val)
             })
             .collect();
+        // concatenated at their exact size (the propagation resamplings hold ~0.9M entries)
+        let nnz: usize = chunks.iter().map(|c| c.1.len()).sum();
         let mut ptr = Vec::with_capacity(rows + 1);
         ptr.push(0);
-        let (mut idx, mut val) = (Vec::new(), Vec::new());
+        let (mut idx, mut val) = (Vec::with_capacity(nnz), Vec::with_capacity(nnz));
         for (lens, i, v) in chunks {
             for l in lens {
                 ptr.push(ptr.last().copied().unwrap_or(0) + l);
@@ -66,18 +79,7 @@ impl Csr {
             idx.extend(i);
             val.extend(v);
         }
-        // drop exact zeros (sorted order is kept)
-        let mut out = Self { rows, cols, ptr: vec![0], idx: Vec::with_capacity(idx.len()), val: Vec::new() };
-        for r in 0..rows {
-            for k in ptr[r]..ptr[r + 1] {
-                if val[k] != 0.0 {
-                    out.idx.push(idx[k]);
-                    out.val.push(val[k]);
-                }
-            }
-            out.ptr.push(out.idx.len());
-        }
-        out
+        Self { rows, cols, ptr, idx, val }
     }
 
     /// Stored entries.
