@@ -460,6 +460,17 @@ fn vector_operators_and_dyn_probes_beat_mrt_against_the_path_tracer() {
     assert_eq!((vm2["probes_inside_clutter"].as_u64(), vm2["probes_inpainted"].as_u64()), (Some(4), Some(4)));
     let a2 = penumbra_asset::AssetFile::open(&g2).unwrap();
     assert_eq!(a2.asset().section("dyn.inside").unwrap().as_u8().unwrap(), [1, 1, 0, 0, 1, 1, 0, 0]); // x fastest, then y
+    // the same bytes with one thread
+    let g2t = dir.path().join("g2t.drto");
+    let (code, _, stderr) = run(penumbra()
+        .args(["--threads", "1", "drt", "--example", "pillars", "--vector", "--vector-rays", "64"])
+        .args(FAST)
+        .arg("--dict")
+        .arg(&d)
+        .arg("-o")
+        .arg(&g2t));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(std::fs::read(&g2).unwrap() == std::fs::read(&g2t).unwrap(), "bytes depend on the thread count");
     // without --vector: kind version 1 and none of the vector sections
     let plain = dir.path().join("p.drto");
     let (code, pv, stderr) = drt_json(&["--example", "pillars"], &d, &plain);
