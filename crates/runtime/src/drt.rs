@@ -39,7 +39,7 @@ fn f32s<'a>(a: &Asset<'a>, name: &str) -> Result<(&'a [f32], Vec<usize>), Runtim
 
 /// An f32 or f16 section as f32: borrowed (zero copy) when stored as f32, widened once at
 /// setup when stored as f16 (`penumbra drt --half`).
-fn floats<'a>(a: &Asset<'a>, name: &str) -> Result<(Cow<'a, [f32]>, Vec<usize>), RuntimeError> {
+pub(crate) fn floats<'a>(a: &Asset<'a>, name: &str) -> Result<(Cow<'a, [f32]>, Vec<usize>), RuntimeError> {
     let s = a.section(name).ok_or_else(|| bad(format!("section {name:?} is missing")))?;
     let e = |x: penumbra_asset::ViewError| bad(format!("section {name:?}: {x}"));
     let v = match s.dtype() {

@@ -22,7 +22,7 @@
 use crate::RuntimeError;
 use crate::mrt::{MrtRuntime, dot};
 use crate::mrt_vec::{grid_res, sh9_irradiance, trilinear};
-use penumbra_asset::{Asset, DType, f16_bits_to_f32};
+use penumbra_asset::{Asset, DType};
 use std::borrow::Cow;
 
 const Y00: f32 = 0.282_094_8; // 1/(2√π)
@@ -84,13 +84,7 @@ impl<'a> VecGroup<'a> {
         let rec = r.as_u32().map_err(|e| bad(format!("{p}.records: {e}")))?;
         let ch = sec("charts")?;
         let charts = ch.as_u32().map_err(|e| bad(format!("{p}.charts: {e}")))?;
-        let v = sec("values")?;
-        let e = |x: penumbra_asset::ViewError| bad(format!("{p}.values: {x}"));
-        let values: Cow<'a, [f32]> = match v.dtype() {
-            DType::F32 => Cow::Borrowed(v.as_f32().map_err(e)?),
-            DType::F16 => Cow::Owned(v.as_f16_bits().map_err(e)?.iter().map(|&h| f16_bits_to_f32(h)).collect()),
-            other => return Err(bad(format!("{p}.values: expected f32 or f16, found {}", other.name()))),
-        };
+        let (values, _) = crate::drt::floats(a, &format!("{p}.values"))?;
         let mut records = Vec::with_capacity(rec.len() / 6);
         for q in rec.chunks_exact(6) {
             let x = VecRecord { dst: q[0], src: q[1], rows: q[2], cols: q[3], offset: q[4], charts: q[5] };
