@@ -76,6 +76,7 @@ fn drt(c: &mut Criterion) {
                     &[1],
                     &mut st,
                     &params,
+                    None,
                     &NoProgress,
                 )
                 .map(|x| x.1.rays_cast)

@@ -241,6 +241,9 @@ pub struct ClutterScene {
 struct BoxGeom {
     /// Inverse rotation (conjugate quaternion).
     inv_rot: [f64; 4],
+    /// The world → box-frame linear map, `inv_scale · R(inv_rot)` as rows (the ray loops
+    /// apply it to every ray that reaches the box's padded bounds).
+    to_box: [[f64; 3]; 3],
     translate: [f64; 3],
     inv_scale: f64,
     size: [f64; 3],
@@ -268,24 +271,21 @@ impl BoxGeom {
                 r += 1;
             }
         }
-        Self {
-            inv_rot: [-q[0], -q[1], -q[2], q[3]],
-            translate: spec.translate,
-            inv_scale: 1.0 / spec.scale,
-            size,
-            slot,
-            chart0,
-            sub,
-            normal,
-        }
+        let inv_rot = [-q[0], -q[1], -q[2], q[3]];
+        let inv_scale = 1.0 / spec.scale;
+        let cols: [[f64; 3]; 3] =
+            core::array::from_fn(|j| rotate(inv_rot, core::array::from_fn(|k| f64::from(u8::from(k == j)))));
+        let to_box = core::array::from_fn(|i| core::array::from_fn(|j| cols[j][i] * inv_scale));
+        Self { inv_rot, to_box, translate: spec.translate, inv_scale, size, slot, chart0, sub, normal }
     }
 
     /// The first surface the ray `o + t·d`, `t ∈ [tmin, tmax]`, meets: `(t, face)`. A ray
     /// that enters through the missing bottom meets the inside of the face it leaves by.
     fn hit(&self, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Option<(f64, usize)> {
-        let s = self.inv_scale;
-        let ol = rotate(self.inv_rot, sub(o, self.translate)).map(|x| x * s);
-        let dl = rotate(self.inv_rot, d).map(|x| x * s);
+        let m = &self.to_box;
+        let v = sub(o, self.translate);
+        let ol: [f64; 3] = core::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2]);
+        let dl: [f64; 3] = core::array::from_fn(|i| m[i][0] * d[0] + m[i][1] * d[1] + m[i][2] * d[2]);
         let lo = [-0.5 * self.size[0], 0.0, -0.5 * self.size[2]];
         let hi = [0.5 * self.size[0], self.size[1], 0.5 * self.size[2]];
         let (mut tn, mut tf) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -941,9 +941,24 @@ impl ClutterScene {
         tmin: f64,
         tmax: f64,
     ) -> Option<ClutterHit> {
+        self.closest_among_except_inv(insts, skip, o, d, d.map(|x| 1.0 / x), tmin, tmax)
+    }
+
+    /// [`ClutterScene::closest_among_except`] with the direction's reciprocals `inv = 1/d`
+    /// computed by the caller (once per ray, not once per block it crosses).
+    #[allow(clippy::too_many_arguments)]
+    pub fn closest_among_except_inv(
+        &self,
+        insts: &[usize],
+        skip: usize,
+        o: [f64; 3],
+        d: [f64; 3],
+        inv: [f64; 3],
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ClutterHit> {
         // (t, global triangle or usize::MAX for a box, instance, box face)
         let mut best: Option<(f64, usize, usize, usize)> = None;
-        let inv = d.map(|x| 1.0 / x);
         for &i in insts {
             if i == skip {
                 continue;

@@ -220,6 +220,11 @@ impl DrtParams {
     }
 }
 
+/// Version of the rays' arithmetic (directions, box and wall queries, rounding). Bake
+/// caches and incremental state keys carry it: a state whose sums came from other
+/// arithmetic would not re-bake to a full bake's bytes. Bump it with any such change.
+pub const TRACE_VERSION: u32 = 2;
+
 /// One dictionary shape as DRT needs it.
 #[derive(Debug, Clone)]
 pub struct DrtShape {
@@ -237,13 +242,16 @@ pub struct DrtShape {
     pub l_q: Vec<i32>,
     /// The power-of-two scale of `l_q`.
     pub l_q_scale: f64,
+    /// `l_q` as `f64` (exact: `|l_q| ≤ 2²²`), for the accumulation's exact `f64` path.
+    pub l_qf: Vec<f64>,
 }
 
 impl DrtShape {
     /// A shape from its implicit lights and `U_b` (both `n × k_b`, row-major).
     pub fn new(name: String, texels: Texels, k_b: usize, l_imp: Vec<f64>, u_b: Vec<f64>) -> Self {
         let (l_q, l_q_scale) = crate::drt_state::quantize(&l_imp);
-        Self { name, texels, k_b, l_imp, u_b, l_q, l_q_scale }
+        let l_qf = l_q.iter().map(|&x| f64::from(x)).collect();
+        Self { name, texels, k_b, l_imp, u_b, l_q, l_q_scale, l_qf }
     }
 }
 
@@ -625,6 +633,34 @@ pub struct Scene<'a> {
     pub dict: &'a DrtDict,
     /// Per block: the clutter instances that overlap it.
     pub block_clutter: Vec<Vec<usize>>,
+    /// Per block and local face: the affine maps world point → face `(u, v)`,
+    /// `[a_u (3), c_u, a_v (3), c_v]` ([`wall_uv_maps`]).
+    pub(crate) wall_uv: Vec<[[f64; 8]; FACE_COUNT]>,
+}
+
+/// Per local face of `blk`, the affine maps from a world point to the face's `(u, v)`:
+/// `to_local` (translate, quarter turns, divide by the scale) followed by `face_uv`, folded
+/// into six multiply-adds so the ray loops' wall hits need no division.
+pub(crate) fn wall_uv_maps(blk: &crate::level::Block) -> [[f64; 8]; FACE_COUNT] {
+    // columns of the world → local linear part: to_local(T + e_j) − 0.5, exact for the
+    // signed permutation of the quarter turns; only the scale's reciprocal rounds
+    let r = (4 - blk.rotation % 4) % 4;
+    let lin: [[f64; 3]; 3] = core::array::from_fn(|j| {
+        let e = crate::level::rotate_y(core::array::from_fn(|k| f64::from(u8::from(k == j))), r);
+        core::array::from_fn(|k| e[k] / blk.scale[k])
+    });
+    core::array::from_fn(|f| {
+        let fr = &crate::shape::FACE_FRAMES[f];
+        let mut m = [0.0; 8];
+        for (h, axis) in [fr.u, fr.v].iter().enumerate() {
+            let a: [f64; 3] = core::array::from_fn(|j| (0..3).map(|k| axis[k] * lin[j][k]).sum());
+            let c = (0..3).map(|k| axis[k] * (0.5 - fr.origin[k])).sum::<f64>()
+                - (0..3).map(|j| a[j] * blk.translation[j]).sum::<f64>();
+            m[4 * h..4 * h + 3].copy_from_slice(&a);
+            m[4 * h + 3] = c;
+        }
+        m
+    })
 }
 
 impl<'a> Scene<'a> {
@@ -636,7 +672,8 @@ impl<'a> Scene<'a> {
                 block_clutter[b].push(i);
             }
         }
-        Self { geo, clutter, dict, block_clutter }
+        let wall_uv = geo.level.blocks.iter().map(wall_uv_maps).collect();
+        Self { geo, clutter, dict, block_clutter, wall_uv }
     }
 }
 
@@ -700,12 +737,14 @@ impl Scene<'_> {
         skip: usize,
     ) -> RayHit {
         let mut hit = None;
+        let mut inv = None;
         for &(y, t0, t1) in segs.iter() {
             let insts = &self.block_clutter[y];
             if insts.is_empty() {
                 continue;
             }
-            if let Some(h) = self.clutter.closest_among_except(insts, skip, x, d, t0.max(1e-9), t1) {
+            let inv = *inv.get_or_insert_with(|| d.map(|c| 1.0 / c));
+            if let Some(h) = self.clutter.closest_among_except_inv(insts, skip, x, d, inv, t0.max(1e-9), t1) {
                 hit = Some(h);
                 break;
             }
@@ -730,6 +769,16 @@ pub(crate) fn rotation(seed: u64, item: u64, texel: u64) -> (f64, f64) {
     let phi = 2.0 * core::f64::consts::PI * unit_f64(hash4(seed, STAGE, item, texel));
     let (s, c) = phi.sin_cos();
     (c, s)
+}
+
+/// The frame `g` with `frame_dir(&g, l) = frame_dir(fr, rotate_z(l, (c, s)))`: the
+/// per-texel rotation folded into the frame once, not applied per ray.
+pub(crate) fn rotated_frame(fr: &[[f64; 3]; 3], (c, s): (f64, f64)) -> [[f64; 3]; 3] {
+    [
+        core::array::from_fn(|k| c * fr[0][k] + s * fr[1][k]),
+        core::array::from_fn(|k| c * fr[1][k] - s * fr[0][k]),
+        fr[2],
+    ]
 }
 
 pub(crate) fn rotate_z(l: [f64; 3], (c, s): (f64, f64)) -> [f64; 3] {
@@ -823,8 +872,9 @@ pub fn bake_with_state(
     let recv = receiving_blocks(level, links, clutter, params.neighborhood);
     let insts: Vec<usize> = (0..clutter.len()).collect();
     let (scene, csums) = trace(&sc, params, &recv, &insts, progress);
-    let b = assemble(&sc, params, DrtShard::WHOLE, &recv, &scene, &insts, &csums)?;
-    let state = DrtState { key, instances, blocks: recv.into_iter().zip(scene).collect(), clutter: csums };
+    let b = assemble(&sc, params, DrtShard::WHOLE, &recv, &scene, &insts, &csums, None)?;
+    let state =
+        DrtState { key, instances, blocks: recv.into_iter().zip(scene).collect(), clutter: csums, asset_crc32c: None };
     Ok((b, state))
 }
 
@@ -832,8 +882,11 @@ pub fn bake_with_state(
 /// instances `moved` were placed elsewhere: only the rays that meet a moved instance at its
 /// old or new place are traced again, in both scenes, and `state` becomes the new scene's.
 /// The result is the bytes a full bake of `new` gives (the sums are integers,
-/// [`crate::drt_state`]). `Err(Param)` when the scenes are not comparable (the caller bakes
-/// in full).
+/// [`crate::drt_state`]). With `prev`, the bake the state came from (its asset decoded,
+/// [`crate::drt_asset::read_bake`]), only the records whose sums changed are assembled and
+/// factored again; the others are copied (a record depends on its own sums alone, so the
+/// bytes are still a full bake's). `Err(Param)` when the scenes are not comparable (the
+/// caller bakes in full).
 #[allow(clippy::too_many_arguments)]
 pub fn bake_incremental(
     level: &Level,
@@ -844,6 +897,7 @@ pub fn bake_incremental(
     moved: &[usize],
     state: &mut DrtState,
     params: &DrtParams,
+    prev: Option<&DrtBake>,
     progress: &dyn Progress,
 ) -> Result<(DrtBake, IncrementalStats), TransportError> {
     check_inputs(level, dict, new, params, DrtShard::WHOLE)?;
@@ -858,15 +912,19 @@ pub fn bake_incremental(
     let sc_old = Scene::new(geo, old, dict);
     let sc = Scene::new(LevelGeometry { level, links, missing: &dict.missing }, new, dict);
     let boxes: Vec<[[f64; 3]; 2]> = moved.iter().flat_map(|&i| [old.padded_bounds(i), new.padded_bounds(i)]).collect();
-    let cull = crate::drt_state::Cull::new(boxes);
-    let keep = Some(&cull);
     let dirs = DirectionSet::cosine(params.rays);
     let cdirs = DirectionSet::cosine(params.clutter_rays);
+    let upper = dirs.dirs.iter().chain(&cdirs.dirs).all(|d| d[2] >= 0.0);
+    let cull = crate::drt_state::Cull::new(boxes, upper);
+    let keep = Some(&cull);
     let recv = receiving_blocks(level, links, new, params.neighborhood);
     let mut stats = IncrementalStats { moved: moved.to_vec(), ..Default::default() };
     let mut old_blocks: BTreeMap<usize, Vec<Sums>> = core::mem::take(&mut state.blocks).into_iter().collect();
     let mut scene = Vec::with_capacity(recv.len());
     let total = recv.len() as u64 + new.len() as u64;
+    // what did not change, and so may be copied from `prev`
+    let mut same_blocks = std::collections::BTreeSet::new();
+    let mut same_insts = std::collections::BTreeSet::new();
     for (done, &x) in recv.iter().enumerate() {
         let n = dict.shapes[level.blocks[x].shape].texels.len();
         let items: Vec<(usize, usize)> = (0..n).map(|t| (x, t)).collect();
@@ -893,12 +951,17 @@ pub fn bake_incremental(
                     .collect::<Vec<_>>()
             })
             .collect();
+        let mut changed = full;
         for (s, (d, cast)) in sums.iter_mut().zip(deltas) {
             stats.rays_cast += cast;
             if !d.is_zero() {
                 stats.texels_changed += 1;
                 s.add(&d);
+                changed = true;
             }
+        }
+        if !changed {
+            same_blocks.insert(x);
         }
         stats.blocks_traced_in_full += usize::from(full);
         scene.push(sums);
@@ -932,6 +995,7 @@ pub fn bake_incremental(
                     .collect::<Vec<_>>()
             })
             .collect();
+        let mut changed = is_moved;
         for (s, (d, cast)) in inst.iter_mut().zip(deltas) {
             stats.rays_cast += cast;
             if is_moved {
@@ -943,13 +1007,25 @@ pub fn bake_incremental(
                 if !d.is_zero() {
                     stats.texels_changed += 1;
                     s.add(&d);
+                    changed = true;
                 }
             }
+        }
+        if !changed {
+            same_insts.insert(i);
         }
         progress.update("drt rays (incremental)", recv.len() as u64 + i as u64 + 1, total);
     }
     let insts: Vec<usize> = (0..new.len()).collect();
-    let b = assemble(&sc, params, DrtShard::WHOLE, &recv, &scene, &insts, &csums)?;
+    // the previous bake lends records only if it is a whole bake with these parameters
+    let reuse = prev.filter(|p| p.params == *params && p.shard == DrtShard::WHOLE).map(|p| Reuse {
+        prev: p,
+        blocks: same_blocks.into_iter().filter(|x| p.receivers.iter().any(|r| r.block == *x)).collect(),
+        insts: same_insts.into_iter().filter(|&i| p.c_b.iter().any(|g| g.instance == i)).collect(),
+    });
+    stats.records_reused = reuse.as_ref().map_or(0, |r| r.blocks.len() + r.insts.len());
+    stats.records_assembled = recv.len() + insts.len() - stats.records_reused;
+    let b = assemble(&sc, params, DrtShard::WHOLE, &recv, &scene, &insts, &csums, reuse.as_ref())?;
     stats.rays_full = b.metrics.rays_traced;
     state.blocks = recv.into_iter().zip(scene).collect();
     state.clutter = csums;
@@ -1006,7 +1082,7 @@ pub fn bake_shard(
         .collect();
     let insts: Vec<usize> = (0..clutter.len()).filter(|&i| shard.owns(i)).collect();
     let (scene, csums) = trace(&sc, params, &recv, &insts, progress);
-    assemble(&sc, params, shard, &recv, &scene, &insts, &csums)
+    assemble(&sc, params, shard, &recv, &scene, &insts, &csums, None)
 }
 
 /// Every ray of the receiving blocks `recv` and the instances `insts`: per block its texels'
@@ -1083,6 +1159,7 @@ fn trace(
 }
 
 /// The operators of the receiving blocks `recv` and instances `insts` from their sums.
+#[allow(clippy::too_many_arguments)]
 fn assemble(
     sc: &Scene<'_>,
     params: &DrtParams,
@@ -1091,6 +1168,7 @@ fn assemble(
     scene: &[Vec<Sums>],
     insts: &[usize],
     csums: &[Vec<Option<Sums>>],
+    reuse: Option<&Reuse<'_>>,
 ) -> Result<DrtBake, TransportError> {
     let (dict, level, clutter) = (sc.dict, sc.geo.level, sc.clutter);
     let rho = dict.albedo;
@@ -1099,6 +1177,9 @@ fn assemble(
         .par_iter()
         .zip(scene.par_iter())
         .map(|(&x, sums)| {
+            if let Some(o) = reuse.and_then(|r| r.block(x)) {
+                return Ok(o);
+            }
             let rows: Vec<TexelRays> = sums
                 .iter()
                 .map(|s| TexelRays {
@@ -1129,6 +1210,9 @@ fn assemble(
         .par_iter()
         .zip(csums.par_iter())
         .map(|(&i, sums)| {
+            if let Some(g) = reuse.and_then(|r| r.instance(i)) {
+                return Ok(g);
+            }
             let gathers: Vec<Result<ClutterRays, usize>> = sums
                 .iter()
                 .map(|s| match s {
@@ -1165,6 +1249,39 @@ fn assemble(
         },
     };
     Ok(DrtBake { params: params.clone(), shard, receivers, du_b, du_c, c_b, metrics })
+}
+
+/// The records of a previous bake an incremental re-bake keeps: those of the receiving
+/// blocks and instances whose rays' sums did not change (a record is a function of its own
+/// sums, the dictionary and the parameters alone; the shards rely on the same fact).
+#[derive(Debug)]
+pub(crate) struct Reuse<'a> {
+    prev: &'a DrtBake,
+    /// Receiving blocks whose records are kept.
+    blocks: std::collections::BTreeSet<usize>,
+    /// Instances whose `C_b`/`C_c` are kept.
+    insts: std::collections::BTreeSet<usize>,
+}
+
+impl Reuse<'_> {
+    fn block(&self, x: usize) -> Option<BlockOut> {
+        if !self.blocks.contains(&x) {
+            return None;
+        }
+        let p = self.prev;
+        let receiver = p.receivers.iter().find(|r| r.block == x)?.clone();
+        let du_c = p.du_c.iter().find(|r| r.dst == x)?.clone();
+        let du_b = p.du_b.iter().filter(|r| r.dst == x).cloned().collect();
+        let count = |v: u8| receiver.mask.iter().filter(|&&m| m == v).count();
+        Some(BlockOut { inpainted: count(1), failures: count(2), receiver, du_b, du_c })
+    }
+
+    fn instance(&self, i: usize) -> Option<GatherOp> {
+        if !self.insts.contains(&i) {
+            return None;
+        }
+        self.prev.c_b.iter().find(|g| g.instance == i).cloned()
+    }
 }
 
 /// One receiving block's records.
@@ -1738,7 +1855,8 @@ mod tests {
         moved[1].translate = [0.62, 0.0, 0.55];
         moved[1].rotate = quat_y(40.0);
         let new = ClutterScene::new(&moved, 4).unwrap();
-        let (inc, stats) = bake_incremental(&level, &links, &d, &old, &new, &[1], &mut state, &p, &NoProgress).unwrap();
+        let (inc, stats) =
+            bake_incremental(&level, &links, &d, &old, &new, &[1], &mut state, &p, None, &NoProgress).unwrap();
         let (full, full_state) =
             bake_with_state(&level, &links, &d, &new, &p, "k".into(), state_instances(&new), &NoProgress).unwrap();
         same_bake(&inc, &full);
@@ -1748,13 +1866,50 @@ mod tests {
         assert!(stats.rays_cast < stats.rays_full, "{stats:?}");
         assert!(stats.texels_changed > 0 && stats.blocks_traced_in_full == 0, "{stats:?}");
         // and back again: the first scene's bake
-        let (back, _) = bake_incremental(&level, &links, &d, &new, &old, &[1], &mut state, &p, &NoProgress).unwrap();
+        let (back, _) =
+            bake_incremental(&level, &links, &d, &new, &old, &[1], &mut state, &p, None, &NoProgress).unwrap();
         let first = bake(&level, &links, &d, &old, &p, &NoProgress).unwrap();
         same_bake(&back, &first);
         // an instance count that differs is refused (the caller bakes in full)
         let fewer = ClutterScene::new(&a[..2], 4).unwrap();
-        let e = bake_incremental(&level, &links, &d, &old, &fewer, &[], &mut state, &p, &NoProgress).unwrap_err();
+        let e = bake_incremental(&level, &links, &d, &old, &fewer, &[], &mut state, &p, None, &NoProgress).unwrap_err();
         assert!(e.to_string().contains("3 clutter instances before, 2 now"), "{e}");
+    }
+
+    #[test]
+    fn an_incremental_re_bake_reassembles_only_the_records_whose_sums_changed() {
+        // two closed rooms side by side, a pillar in each: moving the first leaves every ray
+        // of the second room unchanged, so its block's and its pillar's records are copied
+        let d = dict(0.7, false);
+        let room = |x: f64| Block { shape: 0, rotation: 0, translation: [x, 0.5, 0.5], scale: [1.0; 3] };
+        let level = Level { blocks: vec![room(0.5), room(2.5)], connections: vec![] };
+        let links = vec![[None; 6]; 2];
+        let mut p = params(64);
+        p.clutter_to_clutter = true;
+        let a = [pillar(0.3, 0.4, 10.0), pillar(2.6, 0.5, -20.0)];
+        let old = ClutterScene::new(&a, 4).unwrap();
+        let (prev, mut state) =
+            bake_with_state(&level, &links, &d, &old, &p, "k".into(), state_instances(&old), &NoProgress).unwrap();
+        let mut moved = a.clone();
+        moved[0].translate = [0.65, 0.0, 0.45];
+        let new = ClutterScene::new(&moved, 4).unwrap();
+        let mut st2 = state.clone();
+        let (inc, stats) =
+            bake_incremental(&level, &links, &d, &old, &new, &[0], &mut state, &p, Some(&prev), &NoProgress).unwrap();
+        let full = bake(&level, &links, &d, &new, &p, &NoProgress).unwrap();
+        same_bake(&inc, &full);
+        assert_eq!(inc.metrics.c_b_truncation_rel_error, full.metrics.c_b_truncation_rel_error);
+        assert_eq!(inc.metrics.du_c_truncation_rel_error, full.metrics.du_c_truncation_rel_error);
+        // block 1 and instance 1 copied; block 0 and the moved instance 0 assembled
+        assert_eq!((stats.records_reused, stats.records_assembled), (2, 2), "{stats:?}");
+        // a previous bake with other parameters lends nothing (and the result is the same)
+        let mut q = p.clone();
+        q.k_dc = 3;
+        let other = bake(&level, &links, &d, &old, &q, &NoProgress).unwrap();
+        let (inc2, stats2) =
+            bake_incremental(&level, &links, &d, &old, &new, &[0], &mut st2, &p, Some(&other), &NoProgress).unwrap();
+        same_bake(&inc2, &full);
+        assert_eq!((stats2.records_reused, stats2.records_assembled), (0, 4), "{stats2:?}");
     }
 
     #[test]

@@ -407,17 +407,39 @@ fn f64_list(v: &Value) -> Vec<f64> {
 }
 
 fn read_part(a: &Asset<'_>, i: usize) -> Result<ShardPart, TransportError> {
-    let bad = |m: String| TransportError::Merge(format!("input {}: {m}", i + 1));
+    read_records(a, None, &|m| TransportError::Merge(format!("input {}: {m}", i + 1)))
+}
+
+/// The records of a whole bake's asset read back (the values as stored, exactly), as an
+/// incremental re-bake copies the unchanged ones (`crate::drt::bake_incremental`): `k_b(src)`
+/// gives the modes of a source block, from which the `C_b` column offsets follow.
+pub fn read_bake(a: &Asset<'_>, k_b: &dyn Fn(usize) -> usize) -> Result<DrtBake, TransportError> {
+    Ok(read_records(a, Some(k_b), &|m| TransportError::Asset(format!("previous DRT asset: {m}")))?.bake)
+}
+
+/// [`read_part`] (`whole` = `None`: a shard) or [`read_bake`] (`whole` = `k_b`: a whole bake).
+fn read_records(
+    a: &Asset<'_>,
+    whole: Option<&dyn Fn(usize) -> usize>,
+    bad: &dyn Fn(String) -> TransportError,
+) -> Result<ShardPart, TransportError> {
     if a.kind() != Kind::DRTO {
         return Err(bad(format!("not a DRTO asset (kind {})", a.kind().as_str())));
     }
     let meta: Value = serde_json::from_str(a.meta_json()).map_err(|e| bad(e.to_string()))?;
-    let sh = a.section("shard").ok_or_else(|| bad("a whole bake, not a shard (no shard section)".into()))?;
-    let sh: Value =
-        serde_json::from_str(sh.as_json().map_err(|e| bad(e.to_string()))?).map_err(|e| bad(e.to_string()))?;
-    let shard = DrtShard {
-        index: sh["index"].as_u64().ok_or_else(|| bad("shard.index missing".into()))? as usize,
-        count: sh["count"].as_u64().ok_or_else(|| bad("shard.count missing".into()))? as usize,
+    let (shard, sh) = match (a.section("shard"), whole) {
+        (None, None) => return Err(bad("a whole bake, not a shard (no shard section)".into())),
+        (Some(_), Some(_)) => return Err(bad("a shard, not a whole bake".into())),
+        (None, Some(_)) => (DrtShard::WHOLE, Value::Null),
+        (Some(sh), None) => {
+            let sh: Value =
+                serde_json::from_str(sh.as_json().map_err(|e| bad(e.to_string()))?).map_err(|e| bad(e.to_string()))?;
+            let shard = DrtShard {
+                index: sh["index"].as_u64().ok_or_else(|| bad("shard.index missing".into()))? as usize,
+                count: sh["count"].as_u64().ok_or_else(|| bad("shard.count missing".into()))? as usize,
+            };
+            (shard, sh)
+        }
     };
     let m = &meta["metrics"];
     let recv = u32s(a, "receivers", 3)?;
@@ -460,11 +482,23 @@ fn read_part(a: &Asset<'_>, i: usize) -> Result<ShardPart, TransportError> {
     let mut c_b = Vec::new();
     for (j, r) in rec.chunks(7).enumerate() {
         let [inst, rank, kk, ao, wo, so, ns] = [r[0], r[1], r[2], r[3], r[4], r[5], r[6]];
-        let src_offsets: Vec<usize> = offs
-            .get(j)
-            .and_then(Value::as_array)
-            .map(|o| o.iter().filter_map(Value::as_u64).map(|x| x as usize).collect())
-            .ok_or_else(|| bad(format!("shard.c_b_src_offsets has no entry {j}")))?;
+        let src_offsets: Vec<usize> = match whole {
+            // a whole bake's offsets are the running sums of its sources' modes
+            Some(k_b) => {
+                let s = srcs.get(so..so + ns).ok_or_else(|| bad(format!("c_b record {j}: sources past c_b.srcs")))?;
+                core::iter::once(0)
+                    .chain(s.iter().scan(0, |acc, &y| {
+                        *acc += k_b(y);
+                        Some(*acc)
+                    }))
+                    .collect()
+            }
+            None => offs
+                .get(j)
+                .and_then(Value::as_array)
+                .map(|o| o.iter().filter_map(Value::as_u64).map(|x| x as usize).collect())
+                .ok_or_else(|| bad(format!("shard.c_b_src_offsets has no entry {j}")))?,
+        };
         if src_offsets.last().copied() != Some(kk) {
             return Err(bad(format!("c_b record {j}: source offsets do not end at {kk}")));
         }

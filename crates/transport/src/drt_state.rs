@@ -30,10 +30,9 @@
 
 use crate::TransportError;
 use crate::clutter::ClutterScene;
-use crate::drt::{DrtDict, RayHit, Scene, frame_dir, rotate_z, rotation};
+use crate::drt::{DrtDict, RayHit, Scene, frame_dir, rotated_frame, rotation};
 use crate::gather::DirectionSet;
 use crate::level::Level;
-use crate::shape::face_uv;
 use serde::{Deserialize, Serialize};
 
 /// Fixed-point scale of a bilinear weight.
@@ -135,6 +134,19 @@ struct Slot {
     touched: Vec<usize>,
 }
 
+/// Modes up to which [`Acc::take`] sums a row in an `f64` array on the stack.
+const F64_ROW: usize = 64;
+
+/// `row += w · l` in `i64`.
+#[inline]
+fn row_i64(row: &mut [i64], w: i64, l: &[i32]) {
+    if w != 0 {
+        for (a, &l) in row.iter_mut().zip(l) {
+            *a += w * i64::from(l);
+        }
+    }
+}
+
 /// One texel's accumulators, reused across texels (nothing is zeroed but what was touched).
 #[derive(Debug)]
 pub(crate) struct Acc {
@@ -144,6 +156,8 @@ pub(crate) struct Acc {
     chart_on: Vec<bool>,
     chart_touched: Vec<usize>,
     back: i64,
+    /// The slot the last wall hit went to.
+    last: usize,
 }
 
 impl Acc {
@@ -155,22 +169,29 @@ impl Acc {
             chart_on: vec![false; charts],
             chart_touched: Vec::new(),
             back: 0,
+            last: 0,
         }
     }
 
     /// `sign · (bilinear weights of the wall point (y, face, world q))`.
     fn wall(&mut self, sc: &Scene<'_>, y: usize, face: usize, q: [f64; 3], sign: i64) {
-        let blk = &sc.geo.level.blocks[y];
-        let tex = &sc.dict.shapes[blk.shape].texels;
-        let (u, v) = face_uv(face, blk.to_local(q));
-        let s = match self.slots.iter().position(|s| s.block == y) {
-            Some(s) => s,
-            None => {
-                let n = tex.len();
-                self.slots.push(Slot { block: y, w: vec![0; n], on: vec![false; n], touched: Vec::new() });
-                self.slots.len() - 1
-            }
+        let m = &sc.wall_uv[y][face];
+        let u = m[0] * q[0] + m[1] * q[1] + m[2] * q[2] + m[3];
+        let v = m[4] * q[0] + m[5] * q[1] + m[6] * q[2] + m[7];
+        // most rays of a texel end in the same block: try the last slot first
+        let s = match self.slots.get(self.last) {
+            Some(s) if s.block == y => self.last,
+            _ => match self.slots.iter().position(|s| s.block == y) {
+                Some(s) => s,
+                None => {
+                    let n = sc.dict.shapes[sc.geo.level.blocks[y].shape].texels.len();
+                    self.slots.push(Slot { block: y, w: vec![0; n], on: vec![false; n], touched: Vec::new() });
+                    self.slots.len() - 1
+                }
+            },
         };
+        self.last = s;
+        let tex = &sc.dict.shapes[sc.geo.level.blocks[y].shape].texels;
         let slot = &mut self.slots[s];
         for (t, bw) in tex.bilinear(face, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
             // bw ∈ [0, 1]: round half up without a libm call
@@ -204,16 +225,29 @@ impl Acc {
             let slot = &mut self.slots[s];
             let sh = &dict.shapes[level.blocks[slot.block].shape];
             let k = sh.k_b;
-            // integer sums: no order to fix, so the touched texels are not sorted
+            // integer sums: no order to fix, so the touched texels are not sorted. When
+            // Σ|W_t|·2^L_BITS < 2⁵³ every product and partial sum is an integer that f64
+            // holds exactly, so the (vectorisable) f64 loop gives the i64 loop's result.
+            let wsum: i64 = slot.touched.iter().map(|&t| slot.w[t].abs()).sum();
             let mut row = vec![0i64; k];
-            for &t in &slot.touched {
-                let w = core::mem::take(&mut slot.w[t]);
-                slot.on[t] = false;
-                if w == 0 {
-                    continue;
+            if wsum < (1i64 << (53 - L_BITS)) && k <= F64_ROW {
+                let mut rf = [0.0f64; F64_ROW];
+                let rf = &mut rf[..k];
+                for &t in &slot.touched {
+                    let w = core::mem::take(&mut slot.w[t]) as f64;
+                    slot.on[t] = false;
+                    for (a, &l) in rf.iter_mut().zip(&sh.l_qf[t * k..(t + 1) * k]) {
+                        *a += w * l;
+                    }
                 }
-                for (a, &l) in row.iter_mut().zip(&sh.l_q[t * k..(t + 1) * k]) {
-                    *a += w * i64::from(l);
+                for (a, &f) in row.iter_mut().zip(rf.iter()) {
+                    *a = f as i64;
+                }
+            } else {
+                for &t in &slot.touched {
+                    let w = core::mem::take(&mut slot.w[t]);
+                    slot.on[t] = false;
+                    row_i64(&mut row, w, &sh.l_q[t * k..(t + 1) * k]);
                 }
             }
             slot.touched.clear();
@@ -257,12 +291,16 @@ pub(crate) fn scene_texel(
     let fr = sc.geo.frame(x, f);
     let rot = rotation(seed, x as u64, t as u64);
     let local = cull.map(|c| c.texel(p, &fr, rot)).unwrap_or_default();
+    if cull.is_some() && local.is_empty() {
+        return 0;
+    }
+    let g = rotated_frame(&fr, rot);
     let mut kept = 0;
     for dl in &dirs.dirs {
         if cull.is_some() && !Cull::near(&local, *dl) {
             continue;
         }
-        let d = frame_dir(&fr, rotate_z(*dl, rot));
+        let d = frame_dir(&g, *dl);
         if cull.is_some_and(|c| !meets_any(&c.boxes, p, d)) {
             continue;
         }
@@ -337,12 +375,16 @@ pub(crate) fn clutter_texel(
     let own = sc.clutter.charts[tx.chart].instance;
     let skip = if sc.clutter.is_box(own) { own } else { usize::MAX };
     let local = cull.map(|c| c.texel(o, &fr, rot)).unwrap_or_default();
+    if cull.is_some() && local.is_empty() {
+        return 0;
+    }
+    let g = rotated_frame(&fr, rot);
     let mut kept = 0;
     for dl in &dirs.dirs {
         if cull.is_some() && !Cull::near(&local, *dl) {
             continue;
         }
-        let d = frame_dir(&fr, rotate_z(*dl, rot));
+        let d = frame_dir(&g, *dl);
         if cull.is_some_and(|c| !meets_any(&c.boxes, o, d)) {
             continue;
         }
@@ -386,6 +428,9 @@ pub struct DrtState {
     pub blocks: Vec<(usize, Vec<Sums>)>,
     /// Per instance, per texel: the sums, `None` for a texel whose outside is in no block.
     pub clutter: Vec<Vec<Option<Sums>>>,
+    /// CRC-32C of the asset bytes this bake wrote (set by the caller): the next incremental
+    /// re-bake copies the unchanged records from that asset when it still finds it.
+    pub asset_crc32c: Option<u32>,
 }
 
 const MAGIC: &[u8; 8] = b"PNBDRTS\x01";
@@ -396,6 +441,8 @@ struct Header {
     instances: Vec<StateInstance>,
     blocks: Vec<(usize, usize)>,
     clutter: Vec<usize>,
+    #[serde(default)]
+    asset_crc32c: Option<u32>,
 }
 
 fn put_sums(out: &mut Vec<u8>, s: &Sums) {
@@ -463,6 +510,7 @@ impl DrtState {
             instances: self.instances.clone(),
             blocks: self.blocks.iter().map(|(b, s)| (*b, s.len())).collect(),
             clutter: self.clutter.iter().map(Vec::len).collect(),
+            asset_crc32c: self.asset_crc32c,
         };
         let hj = serde_json::to_vec(&h).unwrap_or_default();
         let mut out = Vec::with_capacity(1 << 20);
@@ -525,7 +573,7 @@ impl DrtState {
         if r.at != body.len() {
             return Err(bad("trailing bytes"));
         }
-        Ok(Self { key: h.key, instances: h.instances, blocks, clutter })
+        Ok(Self { key: h.key, instances: h.instances, blocks, clutter, asset_crc32c: h.asset_crc32c })
     }
 }
 
@@ -558,10 +606,15 @@ pub(crate) struct Cull {
     /// Centre and squared radius of each box's sphere, the radius enlarged by 10⁻⁶ of itself
     /// (and 10⁻⁹) so that rounding never makes the sphere test stricter than the box test.
     spheres: Vec<([f64; 3], f64)>,
+    /// Every direction lies in its frame's upper half space (`z ≥ 0`): a sphere wholly
+    /// below a texel's tangent plane is then out of reach of all its rays.
+    upper: bool,
 }
 
 impl Cull {
-    pub(crate) fn new(boxes: Vec<[[f64; 3]; 2]>) -> Self {
+    /// The culling of rays that may meet `boxes`; `upper` as the field says (the caller
+    /// checks its direction sets).
+    pub(crate) fn new(boxes: Vec<[[f64; 3]; 2]>, upper: bool) -> Self {
         let spheres = boxes
             .iter()
             .map(|[lo, hi]| {
@@ -571,11 +624,13 @@ impl Cull {
                 (c, r * r)
             })
             .collect();
-        Self { boxes, spheres }
+        Self { boxes, spheres, upper }
     }
 
     /// Per sphere, for the texel at `o` with frame `fr` and rotation `rot`: the centre's
-    /// offset in the frame the shared directions are given in, its squared length and `r²`.
+    /// offset in the frame the shared directions are given in, its squared length and `r²`;
+    /// with `upper`, only the spheres not wholly below the tangent plane (none left: the
+    /// texel casts no ray).
     fn texel(&self, o: [f64; 3], fr: &[[f64; 3]; 3], (c, s): (f64, f64)) -> Vec<([f64; 3], f64, f64)> {
         // the distance test needs unit directions, which an orthonormal frame keeps; any
         // other frame keeps every ray (the box test alone decides)
@@ -594,6 +649,8 @@ impl Cull {
                 let wl = [c * w[0] + s * w[1], -s * w[0] + c * w[1], w[2]];
                 (wl, v[0] * v[0] + v[1] * v[1] + v[2] * v[2], if ortho { r2 } else { f64::INFINITY })
             })
+            // a ray with local z ≥ 0 stays in z ≥ 0; the sphere reaches up to wl_z + r
+            .filter(|&(wl, _, r2)| !self.upper || wl[2] + r2.sqrt() >= 0.0)
             .collect()
     }
 
@@ -621,6 +678,10 @@ pub struct IncrementalStats {
     pub texels_changed: usize,
     /// Receiving blocks traced in full (new to the neighbourhood).
     pub blocks_traced_in_full: usize,
+    /// Records (receiving blocks and instances) assembled and factored again.
+    pub records_assembled: usize,
+    /// Records copied from the previous bake (their sums did not change).
+    pub records_reused: usize,
 }
 
 /// Checks that `old` and `new` differ only in the placement of `moved` (same instances,
@@ -654,9 +715,11 @@ mod tests {
     fn the_sphere_test_never_drops_a_ray_the_box_test_keeps() {
         use penumbra_math::rng::{hash4, unit_f64};
         let boxes = vec![[[0.2, 0.0, 0.3], [0.32, 0.75, 0.42]], [[0.55, 0.0, 0.1], [0.6, 0.2, 0.9]]];
-        let cull = Cull::new(boxes.clone());
+        // cosine directions: all in the upper half space, so whole spheres below a texel's
+        // tangent plane are dropped too
+        let cull = Cull::new(boxes.clone(), true);
         let dirs = DirectionSet::cosine(256);
-        let (mut kept, mut near_only) = (0, 0);
+        let (mut kept, mut near_only, mut dropped) = (0, 0, 0);
         for k in 0..400u64 {
             let u = |j: u64| unit_f64(hash4(5, k, j, 0));
             // origins inside, beside and on the boxes' planes
@@ -668,8 +731,9 @@ mod tests {
             let fr = [t, b, nz];
             let rot = rotation(9, k, 1);
             let local = cull.texel(o, &fr, rot);
+            dropped += 2 - local.len();
             for dl in &dirs.dirs {
-                let d = frame_dir(&fr, rotate_z(*dl, rot));
+                let d = frame_dir(&rotated_frame(&fr, rot), *dl);
                 let exact = meets_any(&boxes, o, d);
                 let near = Cull::near(&local, *dl);
                 assert!(near || !exact, "ray {k} {dl:?}: the box test keeps it, the sphere test drops it");
@@ -677,8 +741,8 @@ mod tests {
                 near_only += usize::from(near && !exact);
             }
         }
-        // the test is not vacuous: both kinds occur
-        assert!(kept > 1000 && near_only > 1000, "{kept} {near_only}");
+        // the test is not vacuous: both kinds occur, and whole spheres are dropped
+        assert!(kept > 1000 && near_only > 1000 && dropped > 50, "{kept} {near_only} {dropped}");
     }
 
     #[test]

@@ -362,7 +362,7 @@ fn run_drt(
     let state = out_dir.join(format!("{}.state", d.output_name()));
     cached_or_bake("drt", "DRTO", &output, &key, cache, || {
         let start = Instant::now();
-        let (b, bytes, sb, inc, _) = bake_scene_stateful(&sc, &params, &state, mode)?;
+        let (b, bytes, sb, inc, _) = bake_scene_stateful(&sc, &params, &state, &output, mode)?;
         penumbra_asset::write_file_atomic(&output, &bytes)
             .with_context(|| format!("cannot write {}", output.display()))?;
         penumbra_asset::write_file_atomic(&state, &sb).with_context(|| format!("cannot write {}", state.display()))?;

@@ -402,7 +402,7 @@ pub enum DrtCommand {
 pub fn cache_key(sc: &DrtScene, params: &DrtParams) -> String {
     let inputs = sc.inputs();
     blake3::hash(
-        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "drt", "dict": sc.ops.crc32c, "level_asset": inputs.level_crc32c,
+        json!({"tool": env!("CARGO_PKG_VERSION"), "trace": penumbra_transport::drt::TRACE_VERSION, "stage": "drt", "dict": sc.ops.crc32c, "level_asset": inputs.level_crc32c,
                "level": inputs.level, "clutter": inputs.clutter_hashes, "params": params.to_json()})
         .to_string()
         .as_bytes(),
@@ -416,7 +416,7 @@ pub fn state_key(sc: &DrtScene, params: &DrtParams) -> String {
     let inputs = sc.inputs();
     let (_, res, basis) = &sc.raw_clutter;
     blake3::hash(
-        json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "drt-state", "dict": sc.ops.crc32c,
+        json!({"tool": env!("CARGO_PKG_VERSION"), "trace": penumbra_transport::drt::TRACE_VERSION, "stage": "drt-state", "dict": sc.ops.crc32c,
                "level_asset": inputs.level_crc32c, "level": inputs.level, "params": params.to_json(),
                "clutter_res": res, "clutter_basis_res": basis})
         .to_string()
@@ -457,6 +457,7 @@ pub fn bake_scene_stateful(
     sc: &DrtScene,
     params: &DrtParams,
     state_path: &Path,
+    output: &Path,
     mode: ProgressMode,
 ) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Vec<u8>, Value, Option<VectorMetrics>), CliError> {
     let key = state_key(sc, params);
@@ -503,14 +504,35 @@ pub fn bake_scene_stateful(
             }
             let old = ClutterScene::with_basis(&old_specs, *res, *basis)
                 .map_err(|e| CliError::input(anyhow!("{}: the previous clutter: {e}", state_path.display())))?;
-            match bake_incremental(&sc.level, &sc.links, &sc.dict, &old, &sc.clutter, &moved, &mut st, params, &rep) {
+            let (prev_bake, prev_why) = match previous_bake(sc, &st, output) {
+                Ok(b) => (Some(b), None),
+                Err(why) => (None, Some(why)),
+            };
+            let inc = bake_incremental(
+                &sc.level,
+                &sc.links,
+                &sc.dict,
+                &old,
+                &sc.clutter,
+                &moved,
+                &mut st,
+                params,
+                prev_bake.as_ref(),
+                &rep,
+            );
+            match inc {
                 Ok((b, stats)) => {
                     st.instances = insts;
                     let names: Vec<&str> = moved.iter().map(|&i| sc.clutter.specs[i].name.as_str()).collect();
                     report = json!({"state": state_path.display().to_string(), "used": true, "moved": names,
                                     "rays_cast": stats.rays_cast, "rays_full": stats.rays_full,
                                     "texels_changed": stats.texels_changed,
-                                    "blocks_traced_in_full": stats.blocks_traced_in_full});
+                                    "blocks_traced_in_full": stats.blocks_traced_in_full,
+                                    "records_assembled": stats.records_assembled,
+                                    "records_reused": stats.records_reused});
+                    if let Some(why) = prev_why {
+                        report["records_reason"] = json!(why);
+                    }
                     (b, st)
                 }
                 Err(TransportError::Param(why)) => {
@@ -535,9 +557,29 @@ pub fn bake_scene_stateful(
     let asset =
         to_asset(&b, &sc.clutter, &inputs, Some(&cache_key(sc, params)), v.as_ref()).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
+    let mut state = state;
+    state.asset_crc32c = Some(penumbra_asset::crc32c(&bytes));
     let sb = state.to_bytes();
     report["state_bytes"] = json!(sb.len());
     Ok((b, bytes, sb, report, v.map(|v| v.metrics)))
+}
+
+/// The bake a state came from, read back from the asset it wrote (`output`, when that file
+/// is still the one the state names), so an incremental re-bake can copy the records whose
+/// sums did not change; `Err` says why it cannot (every record is then assembled again).
+fn previous_bake(sc: &DrtScene, st: &DrtState, output: &Path) -> Result<penumbra_transport::drt::DrtBake, String> {
+    let want = st.asset_crc32c.ok_or("the state names no asset")?;
+    let bytes =
+        std::fs::read(output).map_err(|e| format!("cannot read the previous asset {}: {e}", output.display()))?;
+    if penumbra_asset::crc32c(&bytes) != want {
+        return Err(format!("{} is not the asset the state was baked with", output.display()));
+    }
+    // the whole-file checksum matched the bytes the state's bake wrote: no section check
+    let asset =
+        penumbra_asset::OwnedAsset::parse_unverified(&bytes).map_err(|e| format!("{}: {e}", output.display()))?;
+    let k_b =
+        |y: usize| sc.dict.shapes.get(sc.level.blocks.get(y).map_or(usize::MAX, |b| b.shape)).map_or(0, |s| s.k_b);
+    penumbra_transport::drt_asset::read_bake(&asset.asset(), &k_b).map_err(|e| format!("{}: {e}", output.display()))
 }
 
 /// The vector and volume operators (§5.4.3) of a whole bake's receiving blocks, when
@@ -622,7 +664,7 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let t0 = Instant::now();
     let (b, bytes, state, vector) = match &a.state {
         Some(p) => {
-            let (b, bytes, sb, rep, v) = bake_scene_stateful(&sc, &params, p, mode)?;
+            let (b, bytes, sb, rep, v) = bake_scene_stateful(&sc, &params, p, output, mode)?;
             (b, bytes, Some((p, sb, rep)), v)
         }
         None => {
