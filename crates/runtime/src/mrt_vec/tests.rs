@@ -131,7 +131,14 @@ fn runtime<'a>(f: &'a Fixture, q: u32, exclude: bool) -> MrtRuntime<'a> {
         u_bvec: Some(&f.u_bvec),
         u_bvol: Some((&f.u_bvol, &f.probes)),
     };
-    let dict = MrtDictionary { shapes: vec![shape], u_r: &[], k_r: 1, face_texels: 1, exclude_same_face: exclude };
+    let dict = MrtDictionary {
+        shapes: vec![shape],
+        u_r: &[],
+        k_r: 1,
+        face_texels: 1,
+        exclude_same_face: exclude,
+        vectors: None,
+    };
     let level = MrtLevel {
         shapes: vec![0],
         rotations: vec![q],
