@@ -203,7 +203,7 @@ fn to_canonical_dir(d: [f32; 3]) -> [f32; 3] {
 /// `R` and face `g` with frame `(u, v, n)`, the canonical face `g'` has normal `Rᵍ n`, and
 /// `M_ik = (R^q e_k)·e'_i` (`e = (u, v)` of `g`, `e'` of `g'`) maps the texel's tangent
 /// coordinates to the canonical texel's; a tangent vector's coordinates go back by `Mᵀ`.
-fn tangent_maps(frames: &[f32]) -> Result<[[[f32; 4]; 6]; 4], RuntimeError> {
+pub(crate) fn tangent_maps(frames: &[f32]) -> Result<[[[f32; 4]; 6]; 4], RuntimeError> {
     let fr = |g: usize, k: usize| -> [f32; 3] { core::array::from_fn(|c| frames[g * 12 + k * 3 + c]) };
     let d3 = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let mut out = [[[0.0f32; 4]; 6]; 4];
