@@ -242,8 +242,10 @@ fn interface_tangent_maps_and_canonical_probes_follow_the_quarter_turns() {
             let m = t[q][g];
             // a rotation (floor and ceiling turn in their plane), q turns of a quarter turn
             assert!((m[0] * m[3] - m[1] * m[2] - 1.0).abs() < 1e-6, "q {q} face {g}: {m:?}");
-            let c = [1.0, 0.0, -1.0, 0.0][q];
-            assert!((m[0] - c).abs() < 1e-6 && (m[3] - c).abs() < 1e-6, "q {q} face {g}: {m:?}");
+            // the spec's closed form: floor [[c, −s], [s, c]], ceiling [[c, s], [−s, c]]
+            let (c, sn) = ([1.0, 0.0, -1.0, 0.0][q], [0.0, 1.0, 0.0, -1.0][q]);
+            let sg = if g == 2 { 1.0 } else { -1.0 };
+            assert_eq!(m, [c, -sg * sn, sg * sn, c], "q {q} face {g}");
         }
     }
     // one turn, floor (u = +z, v = +x): R(x, y, z) = (−z, y, x) takes u to −x = −v_c and
