@@ -1139,6 +1139,38 @@ mod tests {
     }
 
     #[test]
+    fn sh_gathers_of_uniform_entering_radiance_match_solid_angle_and_form_factor() {
+        // radiance 1 entering through the whole −Z face: the order-3 SH of what arrives at a
+        // point has y₀₀ coefficient y₀₀·Ω (Ω the face's solid angle) and, along an axis a of
+        // which the face lies wholly on one side, y₁ coefficient ±C1·∫ω_a dω = ±C1·π·FF
+        let (c0, c1) = (0.282_094_791_773_878_14, 0.488_602_511_902_919_9);
+        let pi = core::f64::consts::PI;
+        let x = vec![1.0; SMALL.len()];
+        let rows = RowsF64 { x: &x, k: 1 };
+        let poly = [face_point(4, 0.0, 0.0), face_point(4, 1.0, 0.0), face_point(4, 1.0, 1.0), face_point(4, 0.0, 1.0)];
+        // the block centre (a probe of the 1³ grid): Ω = 4π/6, ∫ω dω = −π·FF(centre, −z)·ẑ
+        let sphere = DirectionSet::uniform_sphere(16384);
+        let c =
+            gather_sh(1, SMALL, &rows, 1, &sphere, 4.0 * pi, &|_| ([0.5; 3], Box::new(|l: [f64; 3]| (l, l)) as DirMap));
+        let e = pi * point_polygon_form_factor([0.5; 3], [0.0, 0.0, -1.0], &poly);
+        assert!((c[0] - c0 * 4.0 * pi / 6.0).abs() < 2e-3, "{c:?}");
+        assert!((c[2] + c1 * e).abs() < 2e-3, "{c:?} vs {}", -c1 * e);
+        assert!(c[1].abs() < 2e-3 && c[3].abs() < 2e-3, "{c:?}");
+        // a texel of the opposite (+Z) wall in its texel frame (z = inward normal −ẑ): the
+        // y₁₀ coefficient is C1·π·FF(texel → entry), the irradiance at its normal
+        let tex = response_texels(3);
+        let hemi = DirectionSet::uniform_hemisphere(16384);
+        for t in tex.face_range(5) {
+            let c = gather_sh(1, SMALL, &rows, 1, &hemi, 2.0 * pi, &|_| {
+                let rot = texel_rotation(1, 2, t);
+                (tex.position(t), Box::new(move |l| to_world(5, l, rot)) as DirMap)
+            });
+            let e = pi * point_polygon_form_factor(tex.position(t), tex.normal(t), &poly);
+            assert!((c[2] - c1 * e).abs() < 0.01 * e, "texel {t}: {} vs {}", c[2], c1 * e);
+        }
+    }
+
+    #[test]
     fn propagation_of_uniform_radiance_is_the_visible_fraction() {
         for turn in Turn::ALL {
             let p = propagation(SMALL, turn);
