@@ -332,3 +332,56 @@ fn vector_and_volume_response_across_interfaces_match_the_path_tracer() {
     assert_eq!(f(&v3, "rel_error_vector"), f(&v3, "rel_error_vector_b_only"));
     assert_eq!(f(&v3, "rel_error_vector_b_only"), f(&v, "rel_error_vector_b_only"));
 }
+
+#[test]
+fn runtime_texel_world_frames_match_the_level_geometry() {
+    use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+    use penumbra_runtime::mrt_vec::TexelWorld;
+    use penumbra_transport::level::{Block, rotate_y};
+    use penumbra_transport::shape::{CUBE2D, FACE_FRAMES, Texels};
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    // a warped, turned closed block and a turned dead end (its opening unconnected)
+    let blocks = [
+        Block { shape: 0, rotation: 1, translation: [0.5, 0.5, 0.5], scale: [2.0, 1.0, 0.5] },
+        Block { shape: 1, rotation: 3, translation: [5.0, 1.0, -2.0], scale: [1.0, 2.0, 1.0] },
+    ];
+    let mut toml = String::new();
+    for b in &blocks {
+        toml += &format!(
+            "[[block]]\nshape = \"{}\"\nrotation = {}\ntranslation = {:?}\nscale = {:?}\n",
+            CUBE2D[b.shape].name, b.rotation, b.translation, b.scale
+        );
+    }
+    let (lt, out) = (dir.path().join("w.toml"), dir.path().join("w.mrtl"));
+    std::fs::write(&lt, toml).unwrap();
+    let (code, _, stderr) = run(penumbra().args(["mrt", "level"]).arg(&lt).arg("--dict").arg(&d).arg("-o").arg(&out));
+    assert_eq!(code, 0, "{stderr}");
+    let df = penumbra_asset::AssetFile::open(&d).unwrap();
+    let lf = penumbra_asset::AssetFile::open(&out).unwrap();
+    let (da, la) = (df.asset(), lf.asset());
+    let rd = MrtDictionary::from_asset(&da).unwrap();
+    let rl = MrtLevel::from_asset(&la, &rd).unwrap();
+    let rt = MrtRuntime::new(rd, rl);
+    let mut w = vec![TexelWorld::default(); rt.texel_count()];
+    rt.texel_world(&mut w).unwrap();
+    let mut i = 0;
+    for b in &blocks {
+        let tex = Texels::new(CUBE2D[b.shape], 4);
+        for t in 0..tex.len() {
+            let (f, _, _) = tex.coords(t);
+            let want = [
+                b.to_world(tex.position(t)),
+                b.normal(f),
+                rotate_y(FACE_FRAMES[f].u, b.rotation),
+                rotate_y(FACE_FRAMES[f].v, b.rotation),
+            ];
+            let got = [w[i].position, w[i].normal, w[i].u, w[i].v];
+            for (g, e) in got.iter().zip(&want) {
+                assert!((0..3).all(|k| (f64::from(g[k]) - e[k]).abs() < 1e-5), "texel {i}: {got:?} vs {want:?}");
+            }
+            i += 1;
+        }
+    }
+    assert_eq!(i, w.len());
+}

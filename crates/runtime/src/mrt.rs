@@ -60,6 +60,8 @@ pub struct MrtShape<'a> {
     pub u_bvec: Option<&'a [f32]>,
     /// `U_bvol` (G × k_b × 9, order-3 SH in the shape frame) and the probe centres (G × 3).
     pub u_bvol: Option<(&'a [f32], &'a [f32])>,
+    /// Texel centres in the shape frame (n × 3), when the dictionary has them.
+    pub positions: Option<&'a [f32]>,
 }
 
 /// A dictionary's runtime view (`MRTD`, kind version 2 with interfaces).
@@ -77,6 +79,8 @@ pub struct MrtDictionary<'a> {
     pub exclude_same_face: bool,
     /// The interfaces' vector and volume response (MRTD kind_version 4), when present.
     pub vectors: Option<MrtInterfaceVectors<'a>>,
+    /// `face_frames` (6 × (origin, u, v, n)), when present.
+    pub face_frames: Option<&'a [f32]>,
 }
 
 /// The interfaces' vector and volume response of a dictionary (MRTD kind_version 4,
@@ -154,7 +158,11 @@ impl<'a> MrtDictionary<'a> {
                 }
                 None => None,
             };
-            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx, u_bvec, u_bvol });
+            let positions = match a.section(&format!("{name}.positions")) {
+                Some(_) => Some(f32_section(a, &format!("{name}.positions"), &[n, 3])?),
+                None => None,
+            };
+            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx, u_bvec, u_bvol, positions });
         }
         if shapes.is_empty() {
             return Err(bad("the dictionary has no shapes"));
@@ -178,7 +186,11 @@ impl<'a> MrtDictionary<'a> {
             }
             _ => return Err(bad("iface.u_rvec and iface.u_rvol come together")),
         };
-        Ok(Self { shapes, u_r, k_r, face_texels, exclude_same_face, vectors })
+        let face_frames = match a.section("face_frames") {
+            Some(_) => Some(f32_section(a, "face_frames", &[6, 4, 3])?),
+            None => None,
+        };
+        Ok(Self { shapes, u_r, k_r, face_texels, exclude_same_face, vectors, face_frames })
     }
 }
 

@@ -284,6 +284,53 @@ impl MrtRuntime<'_> {
     }
 }
 
+/// A texel of a level in the world (MRTL `block_xform` and quarter turns applied): what an
+/// engine needs to compute the direct light `l_d` there and to shade normal-mapped surfaces
+/// with [`MrtRuntime::vector_coefficients`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TexelWorld {
+    /// Texel centre.
+    pub position: [f32; 3],
+    /// Inward unit normal (the side light arrives from; the vector coefficients' z).
+    pub normal: [f32; 3],
+    /// The face's u axis (the vector coefficients' x).
+    pub u: [f32; 3],
+    /// The face's v axis (the vector coefficients' y).
+    pub v: [f32; 3],
+}
+
+impl MrtRuntime<'_> {
+    /// World position, normal and tangent frame of every texel (level texel order): block-local
+    /// `p` lands at `translation + R_q(scale ⊙ (p − ½))`, directions turn by `R_q`
+    /// ([`rotate_vec_y`]). `None` when the level has no `block_xform` or the dictionary no
+    /// texel positions or `face_frames`.
+    pub fn texel_world(&self, out: &mut [TexelWorld]) -> Option<()> {
+        assert!(out.len() == self.texel_count(), "out must have texel_count() entries");
+        let xf = self.level().xform?;
+        let frames = self.dictionary().face_frames?;
+        let r2 = self.dictionary().face_texels;
+        let fr = |g: usize, k: usize| -> [f32; 3] { core::array::from_fn(|c| frames[g * 12 + k * 3 + c]) };
+        for (x, &s) in self.level().shapes.iter().enumerate() {
+            let sh = &self.dictionary().shapes[s];
+            let pos = sh.positions?;
+            let q = self.level().rotations[x];
+            let t6 = &xf[x * 6..x * 6 + 6];
+            for t in 0..sh.n {
+                let g = usize::from(sh.faces[t / r2]);
+                let l = [pos[t * 3] - 0.5, pos[t * 3 + 1] - 0.5, pos[t * 3 + 2] - 0.5];
+                let w = rotate_vec_y([l[0] * t6[3], l[1] * t6[4], l[2] * t6[5]], q);
+                out[self.offsets()[x] + t] = TexelWorld {
+                    position: [t6[0] + w[0], t6[1] + w[1], t6[2] + w[2]],
+                    normal: rotate_vec_y(fr(g, 3), q),
+                    u: rotate_vec_y(fr(g, 1), q),
+                    v: rotate_vec_y(fr(g, 2), q),
+                };
+            }
+        }
+        Some(())
+    }
+}
+
 /// The canonical probe of probe `p` of a `res³` grid (x fastest, then y, then z) in a block
 /// lit through a face `q` quarter turns from the canonical entry: the cell centre moved by
 /// `q` turns of `(x, y, z) → (1 − z, y, x)`.

@@ -130,6 +130,7 @@ fn runtime<'a>(f: &'a Fixture, q: u32, exclude: bool) -> MrtRuntime<'a> {
         u_r_idx: [None; 6],
         u_bvec: Some(&f.u_bvec),
         u_bvol: Some((&f.u_bvol, &f.probes)),
+        positions: None,
     };
     let dict = MrtDictionary {
         shapes: vec![shape],
@@ -138,6 +139,7 @@ fn runtime<'a>(f: &'a Fixture, q: u32, exclude: bool) -> MrtRuntime<'a> {
         face_texels: 1,
         exclude_same_face: exclude,
         vectors: None,
+        face_frames: None,
     };
     let level = MrtLevel {
         shapes: vec![0],
