@@ -331,6 +331,18 @@ fn vector_and_volume_response_across_interfaces_match_the_path_tracer() {
     assert_eq!(v3["interface_vectors"], false);
     assert_eq!(f(&v3, "rel_error_vector"), f(&v3, "rel_error_vector_b_only"));
     assert_eq!(f(&v3, "rel_error_vector_b_only"), f(&v, "rel_error_vector_b_only"));
+    // quality gates on both: the b-only figures fail a bound that b + r passes
+    let gate = |dict: &Path, x: &str| -> i32 {
+        run(penumbra()
+            .args(["verify", "mrt", "--rays", "256", "--bounces", "1", "--dict"])
+            .arg(dict)
+            .arg("--level")
+            .arg(&level)
+            .args(["--max-rel-error-vector", x, "--max-rel-error-volume", "0.5"]))
+        .0
+    };
+    assert_eq!(gate(&d, "0.2"), 0);
+    assert_eq!(gate(&d3, "0.2"), 1);
 }
 
 #[test]

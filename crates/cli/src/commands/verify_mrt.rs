@@ -58,6 +58,12 @@ pub struct VerifyMrtArgs {
     /// Exit with code 1 when rel_error_one_bounce exceeds this (a quality gate for CI).
     #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_rel_error: Option<f64>,
+    /// Exit with code 1 when rel_error_vector (tilted normals on the walls) exceeds this.
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
+    pub max_rel_error_vector: Option<f64>,
+    /// Exit with code 1 when rel_error_volume (probes at interior points) exceeds this.
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
+    pub max_rel_error_volume: Option<f64>,
     /// One JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -333,7 +339,19 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
     }
     let failures = crate::commands::gate::apply(
         &mut v,
-        &[crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_one_bounce", max: a.max_rel_error }],
+        &[
+            crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_one_bounce", max: a.max_rel_error },
+            crate::commands::gate::Gate {
+                key: "max_rel_error_vector",
+                metric: "rel_error_vector",
+                max: a.max_rel_error_vector,
+            },
+            crate::commands::gate::Gate {
+                key: "max_rel_error_volume",
+                metric: "rel_error_volume",
+                max: a.max_rel_error_volume,
+            },
+        ],
     );
     if let Some(p) = &a.image {
         let png = top_view(&tex, &one, &r.one_bounce, d.face_res);
