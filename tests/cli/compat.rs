@@ -120,6 +120,12 @@ fn corpus_v1_still_loads() {
                     // kind_version 2: the runtime reads the interface operators
                     let d = penumbra_runtime::mrt::MrtDictionary::from_asset(&a).unwrap();
                     assert_eq!(d.shapes.len(), names.len());
+                    // kind_version 4: and the interfaces' vector and volume response
+                    let v4 = meta["kind_version"].as_u64() == Some(4);
+                    assert_eq!(d.vectors.is_some(), v4);
+                    for s in penumbra_transport::asset::INTERFACE_VECTOR_SECTIONS {
+                        assert_eq!(a.section(s).is_some(), v4, "{s}");
+                    }
                 }
                 for (s, shape) in names.iter().zip(meta["shapes"].as_array().unwrap()) {
                     let n = shape["texels"].as_u64().unwrap() as usize;

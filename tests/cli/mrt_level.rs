@@ -262,3 +262,138 @@ fn runtime_places_texels_in_the_padded_atlas_and_adds_light_only_through_records
     assert!(without[offsets[1]..].iter().all(|&v| v == 0.0));
     assert!(diff(1) > 0.0 && diff(0) == 0.0 && diff(2) == 0.0);
 }
+
+/// A U-turn of four blocks (dead end → corner → corner → dead end, the last beside the
+/// first): a light in block 0 cannot see block 3, whose light all arrives across interfaces.
+const U_TURN: &str = "[[block]]\nshape = \"dead_end\"\nrotation = 1\ntranslation = [0.5, 0.5, 0.5]\n\
+[[block]]\nshape = \"corner\"\nrotation = 3\ntranslation = [1.5, 0.5, 0.5]\n\
+[[block]]\nshape = \"corner\"\nrotation = 2\ntranslation = [1.5, 0.5, 1.5]\n\
+[[block]]\nshape = \"dead_end\"\nrotation = 1\ntranslation = [0.5, 0.5, 1.5]\n\
+[[connection]]\na = 0\na_face = \"+z\"\nb = 1\nb_face = \"+z\"\n\
+[[connection]]\na = 1\na_face = \"+x\"\nb = 2\nb_face = \"+z\"\n\
+[[connection]]\na = 2\na_face = \"+x\"\nb = 3\nb_face = \"+z\"\n";
+
+#[test]
+fn vector_and_volume_response_across_interfaces_match_the_path_tracer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    // kind version 4: the interfaces' vector and volume response, canonical rows × k_r
+    let file = penumbra_asset::AssetFile::open(&d).unwrap();
+    let a = file.asset();
+    let meta: Value = serde_json::from_str(a.meta_json()).unwrap();
+    assert_eq!(meta["kind_version"], 4);
+    assert_eq!(a.section("iface.u_rvec").unwrap().dims(), &[5 * 16, 8, 4]);
+    assert_eq!(a.section("iface.u_rvol").unwrap().dims(), &[8, 8, 9]);
+    let level = dir.path().join("u.toml");
+    std::fs::write(&level, U_TURN).unwrap();
+    let verify = |dict: &Path| -> Value {
+        let (code, stdout, stderr) = run(penumbra()
+            .args(["verify", "mrt", "--rays", "1024", "--bounces", "1", "--json", "--dict"])
+            .arg(dict)
+            .arg("--level")
+            .arg(&level));
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str(&stdout).unwrap()
+    };
+    let v = verify(&d);
+    let f = |x: &Value, k: &str| x[k].as_f64().unwrap_or_else(|| panic!("{k}: {x}"));
+    assert_eq!(v["interface_vectors"], true);
+    assert_eq!(f(&v, "tilt_deg"), 40.0);
+    // block 3 has no direct light: b alone gives nothing there (error exactly 1); b and r
+    // bring the light that crossed three interfaces (SMALL dictionary: k_r = 8, 4² texels)
+    let b3 = &v["per_block"][3];
+    assert_eq!(f(b3, "one_bounce_no_interfaces"), 1.0);
+    assert_eq!(f(b3, "vector_b_only"), 1.0);
+    assert_eq!(f(b3, "volume_b_only"), 1.0);
+    assert!(f(b3, "vector") < 0.35, "{b3}");
+    assert!(f(b3, "volume") < 0.4, "{b3}");
+    // over the level: r matters, and the tilted normals need the vector response (the
+    // untilted scalar light is worse than b + r)
+    assert!(f(&v, "rel_error_vector") < 0.5 * f(&v, "rel_error_vector_b_only"), "{v}");
+    assert!(f(&v, "rel_error_vector") < 0.5 * f(&v, "rel_error_vector_scalar"), "{v}");
+    assert!(f(&v, "rel_error_volume") < 0.7 * f(&v, "rel_error_volume_b_only"), "{v}");
+    assert!(f(&v, "rel_error_vector") < 0.12 && f(&v, "rel_error_volume") < 0.3, "{v}");
+    for k in ["reference_noise_vector", "reference_noise_volume"] {
+        assert!(f(&v, k) > 0.0 && f(&v, k) < 0.03, "{k}: {v}");
+    }
+    assert_eq!(v["vector_receivers"], (5 + 4 + 4 + 5) * 16); // every texel
+    assert_eq!(v["volume_receivers"], 4 * 32 * 6);
+    // without the interface response: kind version 3, and the runtime falls back to b only
+    let d3 = dir.path().join("d3.mrtd");
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "dict"]).args(SMALL).arg("--no-interface-vectors").arg("-o").arg(&d3));
+    assert_eq!(code, 0, "{stderr}");
+    let file = penumbra_asset::AssetFile::open(&d3).unwrap();
+    let meta: Value = serde_json::from_str(file.asset().meta_json()).unwrap();
+    assert_eq!(meta["kind_version"], 3);
+    assert!(file.asset().section("iface.u_rvec").is_none() && meta["params"].get("interface_vectors").is_none());
+    let v3 = verify(&d3);
+    assert_eq!(v3["interface_vectors"], false);
+    assert_eq!(f(&v3, "rel_error_vector"), f(&v3, "rel_error_vector_b_only"));
+    assert_eq!(f(&v3, "rel_error_vector_b_only"), f(&v, "rel_error_vector_b_only"));
+    // quality gates on both: the b-only figures fail a bound that b + r passes
+    let gate = |dict: &Path, x: &str| -> i32 {
+        run(penumbra()
+            .args(["verify", "mrt", "--rays", "256", "--bounces", "1", "--dict"])
+            .arg(dict)
+            .arg("--level")
+            .arg(&level)
+            .args(["--max-rel-error-vector", x, "--max-rel-error-volume", "0.5"]))
+        .0
+    };
+    assert_eq!(gate(&d, "0.2"), 0);
+    assert_eq!(gate(&d3, "0.2"), 1);
+}
+
+#[test]
+fn runtime_texel_world_frames_match_the_level_geometry() {
+    use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+    use penumbra_runtime::mrt_vec::TexelWorld;
+    use penumbra_transport::level::{Block, rotate_y};
+    use penumbra_transport::shape::{CUBE2D, FACE_FRAMES, Texels};
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    // a warped, turned closed block and a turned dead end (its opening unconnected)
+    let blocks = [
+        Block { shape: 0, rotation: 1, translation: [0.5, 0.5, 0.5], scale: [2.0, 1.0, 0.5] },
+        Block { shape: 1, rotation: 3, translation: [5.0, 1.0, -2.0], scale: [1.0, 2.0, 1.0] },
+    ];
+    let mut toml = String::new();
+    for b in &blocks {
+        toml += &format!(
+            "[[block]]\nshape = \"{}\"\nrotation = {}\ntranslation = {:?}\nscale = {:?}\n",
+            CUBE2D[b.shape].name, b.rotation, b.translation, b.scale
+        );
+    }
+    let (lt, out) = (dir.path().join("w.toml"), dir.path().join("w.mrtl"));
+    std::fs::write(&lt, toml).unwrap();
+    let (code, _, stderr) = run(penumbra().args(["mrt", "level"]).arg(&lt).arg("--dict").arg(&d).arg("-o").arg(&out));
+    assert_eq!(code, 0, "{stderr}");
+    let df = penumbra_asset::AssetFile::open(&d).unwrap();
+    let lf = penumbra_asset::AssetFile::open(&out).unwrap();
+    let (da, la) = (df.asset(), lf.asset());
+    let rd = MrtDictionary::from_asset(&da).unwrap();
+    let rl = MrtLevel::from_asset(&la, &rd).unwrap();
+    let rt = MrtRuntime::new(rd, rl);
+    let mut w = vec![TexelWorld::default(); rt.texel_count()];
+    rt.texel_world(&mut w).unwrap();
+    let mut i = 0;
+    for b in &blocks {
+        let tex = Texels::new(CUBE2D[b.shape], 4);
+        for t in 0..tex.len() {
+            let (f, _, _) = tex.coords(t);
+            let want = [
+                b.to_world(tex.position(t)),
+                b.normal(f),
+                rotate_y(FACE_FRAMES[f].u, b.rotation),
+                rotate_y(FACE_FRAMES[f].v, b.rotation),
+            ];
+            let got = [w[i].position, w[i].normal, w[i].u, w[i].v];
+            for (g, e) in got.iter().zip(&want) {
+                assert!((0..3).all(|k| (f64::from(g[k]) - e[k]).abs() < 1e-5), "texel {i}: {got:?} vs {want:?}");
+            }
+            i += 1;
+        }
+    }
+    assert_eq!(i, w.len());
+}

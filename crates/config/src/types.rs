@@ -335,6 +335,10 @@ pub struct MrtStage {
     /// Cosine gather rays per texel of the interface response, 16..=65536 (default 1024).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub response_rays: Option<u32>,
+    /// Bake the interfaces' vector and volume response `U_r⃗`, `U_rvol` (default true; MRTD
+    /// kind_version 4; false keeps the kind-version-3 bytes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interface_vectors: Option<bool>,
     /// Output file name inside `output_dir` (default `dictionary.mrtd`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,

@@ -60,6 +60,8 @@ pub struct MrtShape<'a> {
     pub u_bvec: Option<&'a [f32]>,
     /// `U_bvol` (G × k_b × 9, order-3 SH in the shape frame) and the probe centres (G × 3).
     pub u_bvol: Option<(&'a [f32], &'a [f32])>,
+    /// Texel centres in the shape frame (n × 3), when the dictionary has them.
+    pub positions: Option<&'a [f32]>,
 }
 
 /// A dictionary's runtime view (`MRTD`, kind version 2 with interfaces).
@@ -75,6 +77,27 @@ pub struct MrtDictionary<'a> {
     pub face_texels: usize,
     /// The same-face exclusion rule.
     pub exclude_same_face: bool,
+    /// The interfaces' vector and volume response (MRTD kind_version 4), when present.
+    pub vectors: Option<MrtInterfaceVectors<'a>>,
+    /// `face_frames` (6 × (origin, u, v, n)), when present.
+    pub face_frames: Option<&'a [f32]>,
+}
+
+/// The interfaces' vector and volume response of a dictionary (MRTD kind_version 4,
+/// `iface.u_rvec`, `iface.u_rvol`; MRT thesis §3.5.4–3.5.5 driven by `r`), in the canonical
+/// block (light entering through −Z). [`crate::mrt_vec`] turns it into each block's frame.
+#[derive(Debug, Clone)]
+pub struct MrtInterfaceVectors<'a> {
+    /// `U_r⃗` (rows of `U_r` × k_r × 4, OHLSH in the canonical texel's frame).
+    pub u_rvec: &'a [f32],
+    /// `U_rvol` (g³ × k_r × 9, order-3 SH in the canonical block's frame).
+    pub u_rvol: &'a [f32],
+    /// Probes per axis `g` (the shapes' probe grid).
+    pub volume_res: usize,
+    /// Per quarter-turn count `q` and texel face: the 2×2 map `Mᵀ` (row-major) taking the
+    /// tangent part `(a₁₁, a₁₋₁)` of a canonical texel's OHLSH into the texel's own frame,
+    /// from the dictionary's `face_frames`.
+    pub tangent: [[[f32; 4]; 6]; 4],
 }
 
 impl<'a> MrtDictionary<'a> {
@@ -135,13 +158,85 @@ impl<'a> MrtDictionary<'a> {
                 }
                 None => None,
             };
-            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx, u_bvec, u_bvol });
+            let positions = match a.section(&format!("{name}.positions")) {
+                Some(_) => Some(f32_section(a, &format!("{name}.positions"), &[n, 3])?),
+                None => None,
+            };
+            shapes.push(MrtShape { name, n, k_b, faces, u_b, t_d2b, u_r_idx, u_bvec, u_bvol, positions });
         }
         if shapes.is_empty() {
             return Err(bad("the dictionary has no shapes"));
         }
-        Ok(Self { shapes, u_r, k_r, face_texels, exclude_same_face })
+        let vectors = match (a.section("iface.u_rvec"), a.section("iface.u_rvol")) {
+            (None, None) => None,
+            (Some(_), Some(vol)) => {
+                let g = vol.dims().first().copied().unwrap_or(0);
+                let volume_res = crate::mrt_vec::grid_res(g)
+                    .ok_or_else(|| bad(format!("iface.u_rvol: {g} probes is not a cube number")))?;
+                if shapes.iter().any(|s| s.u_bvol.is_some_and(|(_, p)| p.len() != 3 * g)) {
+                    return Err(bad("iface.u_rvol: its probe grid differs from the shapes' probes"));
+                }
+                let frames = f32_section(a, "face_frames", &[6, 4, 3])?;
+                Some(MrtInterfaceVectors {
+                    u_rvec: f32_section(a, "iface.u_rvec", &[rows, k_r, 4])?,
+                    u_rvol: f32_section(a, "iface.u_rvol", &[g, k_r, 9])?,
+                    volume_res,
+                    tangent: tangent_maps(frames)?,
+                })
+            }
+            _ => return Err(bad("iface.u_rvec and iface.u_rvol come together")),
+        };
+        let face_frames = match a.section("face_frames") {
+            Some(_) => Some(f32_section(a, "face_frames", &[6, 4, 3])?),
+            None => None,
+        };
+        Ok(Self { shapes, u_r, k_r, face_texels, exclude_same_face, vectors, face_frames })
     }
+}
+
+/// Quarter turns about the block's vertical axis that take side face `face` to the canonical
+/// entry −Z (the rotation behind `u_r_idx`): −z 0, −x 1, +z 2, +x 3; other faces 0.
+pub fn canonical_turns(face: usize) -> u32 {
+    match face {
+        0 => 1,
+        5 => 2,
+        1 => 3,
+        _ => 0,
+    }
+}
+
+/// One quarter turn from a block's frame to the canonical one, `(x, y, z) → (−z, y, x)`.
+#[inline]
+fn to_canonical_dir(d: [f32; 3]) -> [f32; 3] {
+    [-d[2], d[1], d[0]]
+}
+
+/// [`MrtInterfaceVectors::tangent`] from `face_frames` (6 × (origin, u, v, n)): for `q` turns
+/// `R` and face `g` with frame `(u, v, n)`, the canonical face `g'` has normal `Rᵍ n`, and
+/// `M_ik = (R^q e_k)·e'_i` (`e = (u, v)` of `g`, `e'` of `g'`) maps the texel's tangent
+/// coordinates to the canonical texel's; a tangent vector's coordinates go back by `Mᵀ`.
+pub(crate) fn tangent_maps(frames: &[f32]) -> Result<[[[f32; 4]; 6]; 4], RuntimeError> {
+    let fr = |g: usize, k: usize| -> [f32; 3] { core::array::from_fn(|c| frames[g * 12 + k * 3 + c]) };
+    let d3 = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let mut out = [[[0.0f32; 4]; 6]; 4];
+    for (q, row) in out.iter_mut().enumerate() {
+        for (g, m) in row.iter_mut().enumerate() {
+            let turn = |mut v: [f32; 3]| {
+                for _ in 0..q {
+                    v = to_canonical_dir(v);
+                }
+                v
+            };
+            let (u, v, n) = (turn(fr(g, 1)), turn(fr(g, 2)), turn(fr(g, 3)));
+            let gc = (0..6)
+                .find(|&h| d3(fr(h, 3), n) > 0.5)
+                .ok_or_else(|| bad("face_frames: the faces' normals are not the six axis directions"))?;
+            let (uc, vc) = (fr(gc, 1), fr(gc, 2));
+            // M = [[u·uc, v·uc], [u·vc, v·vc]]; Mᵀ row-major
+            *m = [d3(u, uc), d3(u, vc), d3(v, uc), d3(v, vc)];
+        }
+    }
+    Ok(out)
 }
 
 /// One stored block of `T_b→r`.
@@ -262,6 +357,10 @@ pub struct MrtRuntime<'a> {
     b: Vec<f32>,
     /// `b_g` per block and face slot (6 × k_b per block).
     b_face: Vec<f32>,
+    /// `(dst, face)` of each group of records (equal `(dst, face)`), in record order.
+    groups: Vec<(u32, u32)>,
+    /// `r` per group (k_r each) from the last [`MrtRuntime::indirect`] (zero without
+    /// interfaces).
     r: Vec<f32>,
     scratch: Vec<f32>,
     bounce: Vec<f32>,
@@ -280,13 +379,16 @@ impl<'a> MrtRuntime<'a> {
         let kb = level.k_b;
         let nb = level.shapes.len();
         let k_r = dict.k_r;
+        let mut groups: Vec<(u32, u32)> = level.records.iter().map(|r| (r.dst, r.face)).collect();
+        groups.dedup();
         Self {
             dict,
             level,
             offsets,
             b: vec![0.0; nb * kb],
             b_face: vec![0.0; nb * 6 * kb],
-            r: vec![0.0; k_r],
+            r: vec![0.0; groups.len() * k_r],
+            groups,
             scratch: vec![0.0; o],
             bounce: vec![0.0; o],
         }
@@ -322,6 +424,19 @@ impl<'a> MrtRuntime<'a> {
     /// `s` at `(x·6 + s)·level().k_b`): the part of `b` from face slot `s`'s direct light.
     pub fn face_coefficients(&self) -> &[f32] {
         &self.b_face
+    }
+
+    /// `(receiving block, entering face)` of each interface response, in the order of
+    /// [`MrtRuntime::response_coefficients`].
+    pub fn response_groups(&self) -> &[(u32, u32)] {
+        &self.groups
+    }
+
+    /// `r` of every `(receiving block, entering face)` ([`MrtRuntime::response_groups`],
+    /// `dictionary().k_r` each) from the last [`MrtRuntime::indirect`]; zeros after one
+    /// without interfaces.
+    pub fn response_coefficients(&self) -> &[f32] {
+        &self.r
     }
 
     /// One-bounce indirect irradiance at every texel from direct irradiance `l_d` (both in
@@ -365,6 +480,7 @@ impl<'a> MrtRuntime<'a> {
                 }
             }
         }
+        self.r.iter_mut().for_each(|v| *v = 0.0);
         if !interfaces {
             return;
         }
@@ -372,14 +488,16 @@ impl<'a> MrtRuntime<'a> {
         let k_r = self.dict.k_r;
         let recs = &self.level.records;
         let mut i = 0;
+        let mut gi = 0;
         while i < recs.len() {
             let (dst, face) = (recs[i].dst, recs[i].face);
-            self.r.iter_mut().for_each(|v| *v = 0.0);
+            let r = &mut self.r[gi * k_r..(gi + 1) * k_r];
+            gi += 1;
             while i < recs.len() && recs[i].dst == dst && recs[i].face == face {
                 let src = recs[i].src as usize;
                 let op = &self.level.t_b2r[i * k_r * kb..(i + 1) * k_r * kb];
                 let b = &self.b[src * kb..(src + 1) * kb];
-                for (j, rj) in self.r.iter_mut().enumerate() {
+                for (j, rj) in r.iter_mut().enumerate() {
                     *rj += dot(&op[j * kb..(j + 1) * kb], b);
                 }
                 i += 1;
@@ -390,7 +508,7 @@ impl<'a> MrtRuntime<'a> {
             let o = &mut out[self.offsets[x]..self.offsets[x] + sh.n];
             for (t, &row) in idx.iter().enumerate() {
                 let row = row as usize;
-                o[t] += dot(&self.dict.u_r[row * k_r..(row + 1) * k_r], &self.r);
+                o[t] += dot(&self.dict.u_r[row * k_r..(row + 1) * k_r], r);
             }
         }
     }

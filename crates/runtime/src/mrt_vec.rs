@@ -1,21 +1,28 @@
 //! Directional and volume evaluation of MRT (MRT thesis §3.5.4–3.5.5, §3.6.3 steps 8–9,
-//! App. B), from the block coefficients `b` of the last [`MrtRuntime::indirect`].
-//!
-//! **b only.** The thesis also drives `U_r⃗` and `U_rvol` by the interface coefficients `r`;
-//! the dictionary (MRTD kind_version 3) has no interface vector/volume response, so light
-//! arriving across interfaces is *not* in these values (it is in the scalar `indirect`).
+//! App. B), from the block coefficients `b` and the interface response coefficients `r` of
+//! the last [`MrtRuntime::indirect`].
 //!
 //! - [`MrtRuntime::vector_coefficients`]: per texel the 4 OHLSH coefficients
 //!   `a = U_b⃗[t] · (b − b_g)` (the same same-face rule as the scalar `U_b`, MRTD runtime
-//!   string), texel frame (x = face u, y = face v, z = inward normal); [`ohlsh_irradiance`]
-//!   gives the irradiance for a tilted unit normal `m` in that frame (App. B, eq. B.3 form:
+//!   string) plus, for every interface `(block, entering face g)` with response `r`,
+//!   `U_r⃗[u_r_idx.g[t]] · r` turned from the canonical texel's frame into the texel's
+//!   (floor and ceiling texels turn their tangent part, [`crate::mrt::MrtInterfaceVectors`]).
+//!   Texel frame: x = face u, y = face v, z = inward normal; [`ohlsh_irradiance`] gives the
+//!   irradiance for a tilted unit normal `m` in that frame (App. B, eq. B.3 form:
 //!   `E = π a₀ y₀₀ + (2π/3) Σ_m a₁ₘ y₁ₘ(m)`).
-//! - [`MrtRuntime::probe_sh`]: per block probe SH `U_bvol · b` (full `b`, MRTD rule),
-//!   rotated from the shape frame into the world frame by the block's quarter turns about +Y
-//!   ([`rotate_sh9_y`], exact for order 3); [`sh9_irradiance`] with `Â = (π, 2π/3, π/4)`.
+//! - [`MrtRuntime::probe_sh`]: per block probe SH `U_bvol · b` (full `b`, MRTD rule) plus, per
+//!   interface `(block, g)`, `U_rvol · r` read at the canonical probe of each probe
+//!   (`P^q`, `P(x, y, z) = (1 − z, y, x)`) and rotated by `q` quarter turns from the canonical
+//!   into the shape frame (`q` = [`crate::mrt::canonical_turns`]`(g)`); then rotated into the
+//!   world frame by the block's quarter turns about +Y ([`rotate_sh9_y`], exact for order 3);
+//!   [`sh9_irradiance`] with `Â = (π, 2π/3, π/4)`.
 //! - [`MrtRuntime::probe_irradiance`]: irradiance at a block-local point and world normal,
 //!   trilinear between the 8 nearest probe centres of that block (clamped to the outermost
 //!   centres: no extrapolation, no blending across blocks).
+//!
+//! A dictionary without the interface response (MRTD kind_version ≤ 3, or baked with
+//! `--no-interface-vectors`) gives the `b` part only: light arriving across interfaces is then
+//! missing from these values (it is in the scalar `indirect`). The `_parts` variants choose.
 
 use crate::mrt::{MrtRuntime, dot};
 
@@ -117,10 +124,21 @@ impl MrtRuntime<'_> {
         self.level().shapes.iter().all(|&s| self.dictionary().shapes[s].u_bvol.is_some())
     }
 
-    /// Per texel (level texel order) the OHLSH coefficients `U_b⃗[t] · (b − b_g)` of the
-    /// indirect incident radiance (b only: see the module docs), from the `b` of the last
-    /// [`MrtRuntime::indirect`]. Shapes without `U_b⃗` get zeros.
+    /// Whether the dictionary has the interfaces' vector and volume response (`U_r⃗`,
+    /// `U_rvol`; MRTD kind_version 4).
+    pub fn has_interface_vectors(&self) -> bool {
+        self.dictionary().vectors.is_some()
+    }
+
+    /// Per texel (level texel order) the OHLSH coefficients of the indirect incident radiance,
+    /// `U_b⃗[t] · (b − b_g)` plus the interfaces' `U_r⃗ r` when the dictionary has them (module
+    /// docs), from the last [`MrtRuntime::indirect`]. Shapes without `U_b⃗` get zeros from `b`.
     pub fn vector_coefficients(&self, out: &mut [[f32; 4]]) {
+        self.vector_coefficients_parts(out, true);
+    }
+
+    /// [`MrtRuntime::vector_coefficients`] with (`interfaces`) or without the `U_r⃗ r` part.
+    pub fn vector_coefficients_parts(&self, out: &mut [[f32; 4]], interfaces: bool) {
         assert!(out.len() == self.texel_count(), "out must have texel_count() entries");
         let kb = self.level().k_b;
         let r2 = self.dictionary().face_texels;
@@ -154,29 +172,85 @@ impl MrtRuntime<'_> {
                 }
             }
         }
+        let Some(iv) = self.dictionary().vectors.as_ref().filter(|_| interfaces) else { return };
+        let k_r = self.dictionary().k_r;
+        for (gi, &(dst, face)) in self.response_groups().iter().enumerate() {
+            let r = &self.response_coefficients()[gi * k_r..(gi + 1) * k_r];
+            let x = dst as usize;
+            let sh = &self.dictionary().shapes[self.level().shapes[x]];
+            let Some(idx) = sh.u_r_idx[face as usize] else { continue };
+            let q = crate::mrt::canonical_turns(face as usize) as usize;
+            let o = &mut out[offsets[x]..offsets[x] + sh.n];
+            for (t, &row) in idx.iter().enumerate() {
+                let rows = &iv.u_rvec[row as usize * k_r * 4..(row as usize + 1) * k_r * 4];
+                let mut a = [0.0f32; 4];
+                for (i, ri) in r.iter().enumerate() {
+                    for c in 0..4 {
+                        a[c] += rows[i * 4 + c] * ri;
+                    }
+                }
+                // tangent part (a₁₁, a₁₋₁) into the texel's own frame
+                let m = &iv.tangent[q][usize::from(sh.faces[t / r2])];
+                let (a11, a1m) = (m[0] * a[3] + m[1] * a[1], m[2] * a[3] + m[3] * a[1]);
+                o[t][0] += a[0];
+                o[t][1] += a1m;
+                o[t][2] += a[2];
+                o[t][3] += a11;
+            }
+        }
     }
 
-    /// Probe SH of block `x` in the world frame: `U_bvol · b` (full `b`, b only) rotated by
-    /// the block's quarter turns. `out` gets `G × 9` values; returns `G` (0 without `U_bvol`).
+    /// Probe SH of block `x` in the world frame: `U_bvol · b` plus the interfaces'
+    /// `U_rvol · r` when the dictionary has them (module docs), rotated by the block's quarter
+    /// turns. `out` gets `G × 9` values; returns `G` (0 without `U_bvol`).
     pub fn probe_sh(&self, x: usize, out: &mut Vec<f32>) -> usize {
+        self.probe_sh_parts(x, out, true)
+    }
+
+    /// [`MrtRuntime::probe_sh`] with (`interfaces`) or without the `U_rvol r` part.
+    pub fn probe_sh_parts(&self, x: usize, out: &mut Vec<f32>, interfaces: bool) -> usize {
         out.clear();
         let sh = &self.dictionary().shapes[self.level().shapes[x]];
         let Some((vol, probes)) = sh.u_bvol else { return 0 };
         let g = probes.len() / 3;
         let kb = self.level().k_b;
         let b = &self.coefficients()[x * kb..x * kb + sh.k_b];
-        let q = self.level().rotations[x];
-        let angle = q as f32 * core::f32::consts::FRAC_PI_2;
+        // shape frame first (b and every interface), then one rotation into the world
+        let mut shape_sh = vec![[0.0f32; 9]; g];
         let mut col = vec![0.0f32; sh.k_b];
-        for p in 0..g {
-            let mut c = [0.0f32; 9];
+        for (p, c) in shape_sh.iter_mut().enumerate() {
             for (j, cj) in c.iter_mut().enumerate() {
                 for (i, v) in col.iter_mut().enumerate() {
                     *v = vol[(p * sh.k_b + i) * 9 + j];
                 }
                 *cj = dot(&col, b);
             }
-            out.extend_from_slice(&rotate_sh9_y(&c, angle));
+        }
+        if let Some(iv) = self.dictionary().vectors.as_ref().filter(|_| interfaces) {
+            let k_r = self.dictionary().k_r;
+            let res = iv.volume_res;
+            for (gi, &(dst, face)) in self.response_groups().iter().enumerate() {
+                if dst as usize != x {
+                    continue;
+                }
+                let r = &self.response_coefficients()[gi * k_r..(gi + 1) * k_r];
+                let q = crate::mrt::canonical_turns(face as usize);
+                for (p, c) in shape_sh.iter_mut().enumerate() {
+                    let pc = canonical_probe(p, res, q);
+                    let mut cc = [0.0f32; 9];
+                    for (j, v) in cc.iter_mut().enumerate() {
+                        *v = (0..k_r).map(|i| iv.u_rvol[(pc * k_r + i) * 9 + j] * r[i]).sum();
+                    }
+                    let rot = rotate_sh9_y(&cc, q as f32 * core::f32::consts::FRAC_PI_2);
+                    for (a, v) in c.iter_mut().zip(rot) {
+                        *a += v;
+                    }
+                }
+            }
+        }
+        let angle = self.level().rotations[x] as f32 * core::f32::consts::FRAC_PI_2;
+        for c in &shape_sh {
+            out.extend_from_slice(&rotate_sh9_y(c, angle));
         }
         g
     }
@@ -208,6 +282,64 @@ impl MrtRuntime<'_> {
         }
         None
     }
+}
+
+/// A texel of a level in the world (MRTL `block_xform` and quarter turns applied): what an
+/// engine needs to compute the direct light `l_d` there and to shade normal-mapped surfaces
+/// with [`MrtRuntime::vector_coefficients`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TexelWorld {
+    /// Texel centre.
+    pub position: [f32; 3],
+    /// Inward unit normal (the side light arrives from; the vector coefficients' z).
+    pub normal: [f32; 3],
+    /// The face's u axis (the vector coefficients' x).
+    pub u: [f32; 3],
+    /// The face's v axis (the vector coefficients' y).
+    pub v: [f32; 3],
+}
+
+impl MrtRuntime<'_> {
+    /// World position, normal and tangent frame of every texel (level texel order): block-local
+    /// `p` lands at `translation + R_q(scale ⊙ (p − ½))`, directions turn by `R_q`
+    /// ([`rotate_vec_y`]). `None` when the level has no `block_xform` or the dictionary no
+    /// texel positions or `face_frames`.
+    pub fn texel_world(&self, out: &mut [TexelWorld]) -> Option<()> {
+        assert!(out.len() == self.texel_count(), "out must have texel_count() entries");
+        let xf = self.level().xform?;
+        let frames = self.dictionary().face_frames?;
+        let r2 = self.dictionary().face_texels;
+        let fr = |g: usize, k: usize| -> [f32; 3] { core::array::from_fn(|c| frames[g * 12 + k * 3 + c]) };
+        for (x, &s) in self.level().shapes.iter().enumerate() {
+            let sh = &self.dictionary().shapes[s];
+            let pos = sh.positions?;
+            let q = self.level().rotations[x];
+            let t6 = &xf[x * 6..x * 6 + 6];
+            for t in 0..sh.n {
+                let g = usize::from(sh.faces[t / r2]);
+                let l = [pos[t * 3] - 0.5, pos[t * 3 + 1] - 0.5, pos[t * 3 + 2] - 0.5];
+                let w = rotate_vec_y([l[0] * t6[3], l[1] * t6[4], l[2] * t6[5]], q);
+                out[self.offsets()[x] + t] = TexelWorld {
+                    position: [t6[0] + w[0], t6[1] + w[1], t6[2] + w[2]],
+                    normal: rotate_vec_y(fr(g, 3), q),
+                    u: rotate_vec_y(fr(g, 1), q),
+                    v: rotate_vec_y(fr(g, 2), q),
+                };
+            }
+        }
+        Some(())
+    }
+}
+
+/// The canonical probe of probe `p` of a `res³` grid (x fastest, then y, then z) in a block
+/// lit through a face `q` quarter turns from the canonical entry: the cell centre moved by
+/// `q` turns of `(x, y, z) → (1 − z, y, x)`.
+pub fn canonical_probe(p: usize, res: usize, q: u32) -> usize {
+    let (mut i, j, mut l) = (p % res, (p / res) % res, p / (res * res));
+    for _ in 0..q % 4 {
+        (i, l) = (res - 1 - l, i);
+    }
+    i + res * (j + res * l)
 }
 
 /// `q` quarter turns about +Y, `(x, y, z) → (z, y, −x)` per turn (the level's rotation).

@@ -9,7 +9,7 @@
 //! older dictionaries still load everywhere except in `penumbra drt`.
 
 use crate::TransportError;
-use crate::dict::{DictBake, MRTD_KIND_VERSION};
+use crate::dict::{DictBake, MRTD_KIND_VERSION, MRTD_KIND_VERSION_VECTORS};
 use crate::shape::{FACE_FRAMES, FACE_NAMES};
 use penumbra_asset::{AssetBuilder, Kind};
 use serde_json::json;
@@ -32,6 +32,10 @@ pub const INTERFACE_SECTIONS: &[&str] = &[
     "iface.sigma_g",
     "iface.flags",
 ];
+
+/// Shared interface sections of kind version 4 (the vector and volume response), after
+/// every interface's own sections in file order.
+pub const INTERFACE_VECTOR_SECTIONS: &[&str] = &["iface.u_rvec", "iface.u_rvol"];
 
 /// Names of every section of an MRTD v1 asset of these shapes, for `require_known`.
 pub fn section_names(shapes: &[&str]) -> Vec<String> {
@@ -102,9 +106,9 @@ pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
             })
         })
         .collect();
-    json!({
+    let mut meta = json!({
         "kind": "MRTD",
-        "kind_version": MRTD_KIND_VERSION,
+        "kind_version": kind_version(b),
         "tool": concat!("penumbra ", env!("CARGO_PKG_VERSION")),
         "convention": {
             "frame": "each shape is the unit cube [0,1]^3, +Y up; faces -x,+x,-y(floor),+y(ceiling),-z,+z = 0..5; normals point inward",
@@ -126,7 +130,23 @@ pub fn meta_json(b: &DictBake, cache_key: Option<&str>) -> serde_json::Value {
             .collect::<Vec<_>>()),
         "cache_key": cache_key,
         "metrics": b.metrics,
-    })
+    });
+    if kind_version(b) == MRTD_KIND_VERSION_VECTORS {
+        meta["convention"]["u_rvec"] = json!(
+            "kind_version 4. Light entering a block through side face g with response r (as for u_r): q = quarter turns taking g to the canonical entry -z (-z 0, -x 1, +z 2, +x 3); texel t gets OHLSH a = u_rvec[u_r_idx.g[t]] . r in the frame of its canonical texel; a floor or ceiling texel turns its tangent part into its own frame (schemas/asset-format.md, MRTD); side texels use it as is. Probe p of the block reads canonical probe P^q(p), P(x,y,z) = (1-z, y, x) on cell centres, u_rvol[.] . r rotated by q quarter turns about +Y ((x,y,z) -> (z,y,-x) per turn) into the shape frame"
+        );
+    }
+    meta
+}
+
+/// The kind version of the asset `b` writes: 4 with the interfaces' vector and volume
+/// response, else 3.
+pub fn kind_version(b: &DictBake) -> u32 {
+    if b.interfaces.as_ref().is_some_and(|i| i.vectors.is_some()) {
+        MRTD_KIND_VERSION_VECTORS
+    } else {
+        MRTD_KIND_VERSION
+    }
 }
 
 /// Builds the asset.
@@ -178,6 +198,13 @@ pub fn to_asset(b: &DictBake, cache_key: Option<&str>) -> Result<AssetBuilder, T
             let [rn, xn] = interface_section_names(name, i.face);
             a.add_f32(&rn, &[i.r_b2rlf.nrows(), i.r_b2rlf.ncols()], &mat(&i.r_b2rlf)).map_err(err)?;
             a.add_u32(&xn, &[i.u_r_index.len()], &i.u_r_index).map_err(err)?;
+        }
+        // kind version 4: the vector and volume response driven by r, after every older section
+        if let Some(v) = &ib.vectors {
+            let (rows, kr) = (ib.u_r.nrows(), ib.u_r.ncols());
+            a.add_f32("iface.u_rvec", &[rows, kr, 4], &f32s(v.u_rvec.iter().copied())).map_err(err)?;
+            let g = v.volume_res.pow(3);
+            a.add_f32("iface.u_rvol", &[g, kr, 9], &f32s(v.u_rvol.iter().copied())).map_err(err)?;
         }
     }
     Ok(a)

@@ -5,7 +5,9 @@
 use crate::TransportError;
 use crate::balance::{BalanceStats, balance_transport};
 use crate::gather::{DirectionSet, Gather, probe_sh, texel_sh, transport_matrix};
-use crate::interface::{InterfaceBake, InterfaceMetrics, InterfaceParams, ShapeInput, bake_interfaces, side_openings};
+use crate::interface::{
+    InterfaceBake, InterfaceMetrics, InterfaceParams, ShapeInput, VectorResponseParams, bake_interfaces, side_openings,
+};
 use crate::operators::{Prior, Reduced, enrich, fallback_basis, prior_from_samples, reduce};
 use crate::prior::{DirectLight, LightLayout, SphereLight, prior_lights, test_lights};
 use crate::reference::{ff_parallel_rectangles, ff_perpendicular_rectangles, one_bounce, point_polygon_form_factor};
@@ -21,8 +23,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Kind version of the `MRTD` sections this bake writes (2: optional interface sections;
 /// 3: `<shape>.l_imp` for DRT; version 1 and 2 assets still load, version 1 as a dictionary
-/// without interfaces).
+/// without interfaces). A dictionary with the interfaces' vector and volume response
+/// (`iface.u_rvec`, `iface.u_rvol`) is [`MRTD_KIND_VERSION_VECTORS`].
 pub const MRTD_KIND_VERSION: u32 = 3;
+
+/// Kind version of an `MRTD` with `iface.u_rvec` and `iface.u_rvol` (optional sections:
+/// readers of version 3 skip them).
+pub const MRTD_KIND_VERSION_VECTORS: u32 = 4;
 
 /// Energy fractions of Table 3.2.
 pub const TABLE_3_2_FRACTIONS: [f64; 3] = [0.80, 0.90, 0.95];
@@ -75,6 +82,10 @@ pub struct DictParams {
     pub interfaces: bool,
     /// Interface parameters.
     pub interface: InterfaceParams,
+    /// Bake the interfaces' vector and volume response (`U_r⃗`, `U_rvol`, MRT thesis
+    /// §3.5.4–3.5.5 driven by `r`) with `vector_rays`, `volume_res`, `probe_rays`; MRTD kind
+    /// version 4. Off: the kind-version-3 bytes.
+    pub interface_vectors: bool,
 }
 
 impl DictParams {
@@ -102,12 +113,13 @@ impl DictParams {
             seed: 0,
             interfaces: true,
             interface: InterfaceParams::default(),
+            interface_vectors: true,
         }
     }
 
     /// The normalised parameters as JSON (the asset's `meta.params`; hashed for cache keys).
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "dictionary": self.dictionary.name(),
             "face_res": self.face_res,
             "k_d": self.k_d,
@@ -135,7 +147,12 @@ impl DictParams {
             "lf_super": self.interface.grid.sub,
             "interface_enrich": self.interface.enrich,
             "response_rays": self.interface.response_rays,
-        })
+        });
+        // only when on: a dictionary baked without it keeps its kind-version-3 bytes and key
+        if self.interface_vectors {
+            v["interface_vectors"] = serde_json::Value::Bool(true);
+        }
+        v
     }
 
     /// Checks every range; the message names the parameter and the allowed range.
@@ -571,15 +588,13 @@ pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progres
         let inputs: Vec<ShapeInput<'_>> =
             shapes.iter().map(|s| ShapeInput { texels: &s.texels, reduced: &s.reduced }).collect();
         let sigma_m: Vec<Vec<f64>> = shapes.iter().map(|s| s.reduced.sigma_m.clone()).collect();
-        let ib = bake_interfaces(
-            &inputs,
-            &sigma_m,
-            params.albedo,
-            params.face_res,
-            &params.interface,
-            params.seed,
-            progress,
-        )?;
+        let mut ip = params.interface.clone();
+        ip.vectors = params.interface_vectors.then_some(VectorResponseParams {
+            vector_rays: params.vector_rays,
+            volume_res: params.volume_res,
+            probe_rays: params.probe_rays,
+        });
+        let ib = bake_interfaces(&inputs, &sigma_m, params.albedo, params.face_res, &ip, params.seed, progress)?;
         metrics.interfaces = ib
             .interfaces
             .iter()

@@ -58,12 +58,26 @@ pub struct InterfaceParams {
     pub enrich: usize,
     /// Cosine gather rays per texel for the response `G`.
     pub response_rays: usize,
+    /// The vector and volume response (`U_r⃗`, `U_rvol`); `None` skips them.
+    pub vectors: Option<VectorResponseParams>,
 }
 
 impl Default for InterfaceParams {
     fn default() -> Self {
-        Self { k_rlf: 128, k_r: 32, grid: LfGrid::THESIS, enrich: 3, response_rays: 1024 }
+        Self { k_rlf: 128, k_r: 32, grid: LfGrid::THESIS, enrich: 3, response_rays: 1024, vectors: None }
     }
+}
+
+/// Sampling of the interface vector and volume response (MRT thesis §3.5.4–3.5.5 driven by
+/// `r`; the dictionary's `vector_rays`, `volume_res`, `probe_rays`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VectorResponseParams {
+    /// Uniform-hemisphere rays per canonical response texel (quadratic SH → OHLSH).
+    pub vector_rays: usize,
+    /// Probes per axis of the canonical block's probe grid (the shapes' `U_bvol` grid).
+    pub volume_res: usize,
+    /// Uniform-sphere rays per probe.
+    pub probe_rays: usize,
 }
 
 /// One shape's side of one interface.
@@ -100,6 +114,17 @@ pub struct InterfaceMetrics {
     pub response_rel_error: f64,
     /// Stored entries of the three propagation resamplings (sparsity).
     pub propagation_nnz: [usize; 3],
+    /// `‖G⃗ − U_r⃗ T_rlf→r‖ / ‖G⃗‖`: the part of the OHLSH response `G⃗ = F⃗_rlf H_rlf` that
+    /// the `k_r` response coefficients `r` cannot drive (`U_r⃗ = G⃗ Ṽ_g Σ̃_g⁻¹`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vector_response_rel_error: Option<f64>,
+    /// The same for the probe response `U_rvol`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub volume_response_rel_error: Option<f64>,
+    /// Irradiance at the unperturbed normal from `G⃗` against `G` (OHLSH's band truncation and
+    /// the two gathers' noise; self-consistency, not error against truth).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vector_response_consistency: Option<f64>,
 }
 
 /// The interface operators of a dictionary.
@@ -122,8 +147,28 @@ pub struct InterfaceBake {
     pub t_rlf2r: Mat<f64>,
     /// Every singular value of `G`.
     pub sigma_g: Vec<f64>,
+    /// The vector and volume response, when [`InterfaceParams::vectors`] asks for it.
+    pub vectors: Option<VectorResponse>,
     /// Measurements.
     pub metrics: InterfaceMetrics,
+}
+
+/// The interface's vector and volume response (MRT thesis §3.5.4–3.5.5 and §3.6.3 step 8,
+/// "from the b's and r's"): for light entering the canonical block through −Z with response
+/// coefficients `r`, per response texel the OHLSH coefficients `U_r⃗ r` of the incident
+/// radiance in the texel frame (x = face u, y = face v, z = inward normal), and per probe of
+/// the canonical block's grid the order-3 SH `U_rvol r` in the canonical block's frame. Both
+/// are `G_x Ṽ_g Σ̃_g⁻¹` with `G_x` the gather of the lightfield basis `H_rlf` (the least-squares
+/// map from `r = T_rlf→r c` to `G_x c`).
+#[derive(Debug, Clone)]
+pub struct VectorResponse {
+    /// `U_r⃗`: `5R² × k_r × 4`, texel-major (rows as `U_r`).
+    pub u_rvec: Vec<f64>,
+    /// `U_rvol`: `g³ × k_r × 9`, probe-major; probes at the cell centres of a `g³` grid,
+    /// x fastest, then y, then z (the shapes' `probes`).
+    pub u_rvol: Vec<f64>,
+    /// `g`.
+    pub volume_res: usize,
 }
 
 /// What the interface bake reads from each shape's dictionary bake.
@@ -351,6 +396,164 @@ fn gather_rows(res: usize, grid: LfGrid, x: &dyn LfRows, k: usize, rays: usize, 
         dst.iter_mut().for_each(|o| *o *= scale);
     });
     out
+}
+
+/// A point's map from a set direction to `(local, world)` directions.
+type DirMap = Box<dyn Fn([f64; 3]) -> ([f64; 3], [f64; 3])>;
+
+/// Order-3 SH (9 per column, `9 × k` per point, SH-major) of the radiance arriving at
+/// `points` through the canonical entry (−Z) from lightfields (the rows of `x`), by the
+/// directions `dirs` (pdf `1/solid`) turned per point by `frame(point, dir) → (local, world)`:
+/// `c_j = (solid/N) Σ L(ω) y_j(local ω)`. Lightfield reads interpolate as in [`gather_rows`].
+fn gather_sh(
+    n_points: usize,
+    grid: LfGrid,
+    x: &dyn LfRows,
+    k: usize,
+    dirs: &DirectionSet,
+    solid: f64,
+    point: &(dyn Fn(usize) -> ([f64; 3], DirMap) + Sync),
+) -> Vec<f64> {
+    let fa = IfaceFrame::incoming(CANONICAL_ENTRY);
+    let scale = solid / dirs.len() as f64;
+    let mut out = vec![0.0; n_points * 9 * k];
+    out.par_chunks_mut(9 * k).enumerate().for_each(|(t, acc)| {
+        let (p, frame) = point(t);
+        let mut val = vec![0.0; k];
+        for l in &dirs.dirs {
+            let (local, d) = frame(*l);
+            let (g, tt) = exit_face(p, d);
+            if g != CANONICAL_ENTRY {
+                continue;
+            }
+            let q = [p[0] + tt * d[0], p[1] + tt * d[1], p[2] + tt * d[2]];
+            let (ra, ya) = fa.coords(q);
+            let om = fa.local([-d[0], -d[1], -d[2]]);
+            let (sa, sb) = dir_to_square(om[0], om[1]);
+            val.fill(0.0);
+            for (s, w) in grid.taps(ra, ya, sa, sb) {
+                if w != 0.0 {
+                    x.add(s, w, &mut val);
+                }
+            }
+            x.finish(&mut val);
+            let y = crate::gather::sh9(local);
+            for (j, yj) in y.iter().enumerate() {
+                for (a, v) in acc[j * k..(j + 1) * k].iter_mut().zip(&val) {
+                    *a += yj * v;
+                }
+            }
+        }
+        acc.iter_mut().for_each(|a| *a *= scale);
+    });
+    out
+}
+
+/// The vector and volume response of the canonical interface ([`VectorResponse`]) from the
+/// basis `x` (`k` columns) and `G`'s SVD (`k_r` kept), with its two projection errors and the
+/// consistency of `G⃗` against `G` (`g_scalar`, `5R² × k` row-major).
+#[allow(clippy::too_many_arguments)]
+fn vector_response(
+    res: usize,
+    grid: LfGrid,
+    x: &dyn LfRows,
+    k: usize,
+    svd: &crate::svd::ThinSvd,
+    kr: usize,
+    g_scalar: &[f64],
+    vp: &VectorResponseParams,
+    seed: u64,
+) -> (VectorResponse, [f64; 3]) {
+    let tex = response_texels(res);
+    let hemi = DirectionSet::uniform_hemisphere(vp.vector_rays);
+    let sh = gather_sh(tex.len(), grid, x, k, &hemi, 2.0 * core::f64::consts::PI, &|t| {
+        let (f, _, _) = tex.coords(t);
+        let rot = texel_rotation(seed ^ 0x5652_4543, 0x4946, t);
+        (tex.position(t), Box::new(move |l| to_world(f, l, rot)))
+    });
+    // quadratic SH → OHLSH (App. B), per texel 4 × k
+    let a = penumbra_math::ohlsh::quadratic_to_ohlsh();
+    let n = tex.len();
+    let mut gv = vec![0.0; n * 4 * k];
+    for t in 0..n {
+        for c in 0..4 {
+            let dst = &mut gv[(t * 4 + c) * k..(t * 4 + c + 1) * k];
+            for j in 0..9 {
+                let w = a[c * 9 + j];
+                if w == 0.0 {
+                    continue;
+                }
+                for (d, v) in dst.iter_mut().zip(&sh[(t * 9 + j) * k..(t * 9 + j + 1) * k]) {
+                    *d += w * v;
+                }
+            }
+        }
+    }
+    let g = vp.volume_res;
+    let probes: Vec<[f64; 3]> = (0..g * g * g)
+        .map(|i| {
+            let c = |j: usize| (j as f64 + 0.5) / g as f64;
+            [c(i % g), c((i / g) % g), c(i / (g * g))]
+        })
+        .collect();
+    let sphere = DirectionSet::uniform_sphere(vp.probe_rays);
+    let gvol = gather_sh(probes.len(), grid, x, k, &sphere, 4.0 * core::f64::consts::PI, &|i| {
+        let (c, s) = texel_rotation(seed ^ 0x5652_564F, 0x4946, i);
+        // rotated about +Y (world up) per probe, as the shapes' probes
+        (
+            probes[i],
+            Box::new(move |l: [f64; 3]| {
+                let d = [l[0] * c + l[2] * s, l[1], -l[0] * s + l[2] * c];
+                (d, d)
+            }),
+        )
+    });
+    // U_x = G_x Ṽ Σ̃⁻¹ (rows of G_x: k values each) and ‖G_x (I − ṼṼᵀ)‖/‖G_x‖
+    let project = |gx: &[f64], width: usize| -> (Vec<f64>, f64) {
+        let rows = gx.len() / k;
+        let mut u = vec![0.0; rows * kr];
+        let (mut out2, mut all2) = (0.0, 0.0);
+        for r in 0..rows {
+            let row = &gx[r * k..(r + 1) * k];
+            let mut proj = vec![0.0; k];
+            for i in 0..kr {
+                let c: f64 = (0..k).map(|j| row[j] * svd.v[(j, i)]).sum();
+                u[r * kr + i] = c / svd.s[i];
+                for (j, p) in proj.iter_mut().enumerate() {
+                    *p += c * svd.v[(j, i)];
+                }
+            }
+            out2 += row.iter().zip(&proj).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            all2 += row.iter().map(|a| a * a).sum::<f64>();
+        }
+        // rows are (point, coefficient); store point-major, mode, coefficient
+        let pts = rows / width;
+        let mut stored = vec![0.0; rows * kr];
+        for pnt in 0..pts {
+            for c in 0..width {
+                for i in 0..kr {
+                    stored[(pnt * kr + i) * width + c] = u[(pnt * width + c) * kr + i];
+                }
+            }
+        }
+        (stored, if all2 > 0.0 { (out2 / all2).sqrt() } else { 0.0 })
+    };
+    let (u_rvec, e_vec) = project(&gv, 4);
+    let (u_rvol, e_vol) = project(&gvol, 9);
+    // consistency: irradiance at the normal, π a₀ y₀₀ + (2π/3) a₁₀ y₁₀(+z), against G
+    let (c0, c1) = (0.282_094_791_773_878_14, 0.488_602_511_902_919_9);
+    let pi = core::f64::consts::PI;
+    let (mut d2, mut g2) = (0.0, 0.0);
+    for t in 0..n {
+        for j in 0..k {
+            let e = pi * c0 * gv[(t * 4) * k + j] + 2.0 * pi / 3.0 * c1 * gv[(t * 4 + 2) * k + j];
+            let want = g_scalar[t * k + j];
+            d2 += (e - want) * (e - want);
+            g2 += want * want;
+        }
+    }
+    let consistency = if g2 > 0.0 { (d2 / g2).sqrt() } else { 0.0 };
+    (VectorResponse { u_rvec, u_rvol, volume_res: g }, [e_vec, e_vol, consistency])
 }
 
 /// For light entering `shape` through side face `face`: each texel's row in the canonical
@@ -847,6 +1050,15 @@ pub fn bake_interfaces(
     let t_rlf2r = Mat::from_fn(kr, k, |i, j| d.s[i] * d.v[(j, i)]);
     let ge: f64 = d.s.iter().map(|x| x * x).sum();
     let response_rel_error = (d.s[kr..].iter().map(|x| x * x).sum::<f64>() / ge.max(f64::MIN_POSITIVE)).sqrt();
+    // the vector and volume response driven by r (§3.5.4–3.5.5, §3.6.3 step 8)
+    let (vectors, vector_errors) = match &p.vectors {
+        Some(vp) => {
+            let basis = RowsBasis { u: &u, sig: &sig };
+            let (v, e) = vector_response(face_res, grid, &basis, k, &d, kr, &gv, vp, seed);
+            (Some(v), Some(e))
+        }
+        None => (None, None),
+    };
     tick(progress);
     let metrics = InterfaceMetrics {
         lightfield_samples: m,
@@ -857,6 +1069,9 @@ pub fn bake_interfaces(
         propagation_rel_error_before_enrichment: prop_before,
         response_rel_error,
         propagation_nnz: [props[0].nnz(), props[1].nnz(), props[2].nnz()],
+        vector_response_rel_error: vector_errors.map(|e| e[0]),
+        volume_response_rel_error: vector_errors.map(|e| e[1]),
+        vector_response_consistency: vector_errors.map(|e| e[2]),
     };
     Ok(InterfaceBake {
         params: p.clone(),
@@ -867,6 +1082,7 @@ pub fn bake_interfaces(
         u_r,
         t_rlf2r,
         sigma_g: d.s,
+        vectors,
         metrics,
     })
 }
@@ -919,6 +1135,38 @@ mod tests {
         for t in 0..tex.len() {
             let want = core::f64::consts::PI * point_polygon_form_factor(tex.position(t), tex.normal(t), &poly);
             assert!((e[t] - want).abs() < 0.01, "texel {t}: {} vs {want}", e[t]);
+        }
+    }
+
+    #[test]
+    fn sh_gathers_of_uniform_entering_radiance_match_solid_angle_and_form_factor() {
+        // radiance 1 entering through the whole −Z face: the order-3 SH of what arrives at a
+        // point has y₀₀ coefficient y₀₀·Ω (Ω the face's solid angle) and, along an axis a of
+        // which the face lies wholly on one side, y₁ coefficient ±C1·∫ω_a dω = ±C1·π·FF
+        let (c0, c1) = (0.282_094_791_773_878_14, 0.488_602_511_902_919_9);
+        let pi = core::f64::consts::PI;
+        let x = vec![1.0; SMALL.len()];
+        let rows = RowsF64 { x: &x, k: 1 };
+        let poly = [face_point(4, 0.0, 0.0), face_point(4, 1.0, 0.0), face_point(4, 1.0, 1.0), face_point(4, 0.0, 1.0)];
+        // the block centre (a probe of the 1³ grid): Ω = 4π/6, ∫ω dω = −π·FF(centre, −z)·ẑ
+        let sphere = DirectionSet::uniform_sphere(16384);
+        let c =
+            gather_sh(1, SMALL, &rows, 1, &sphere, 4.0 * pi, &|_| ([0.5; 3], Box::new(|l: [f64; 3]| (l, l)) as DirMap));
+        let e = pi * point_polygon_form_factor([0.5; 3], [0.0, 0.0, -1.0], &poly);
+        assert!((c[0] - c0 * 4.0 * pi / 6.0).abs() < 2e-3, "{c:?}");
+        assert!((c[2] + c1 * e).abs() < 2e-3, "{c:?} vs {}", -c1 * e);
+        assert!(c[1].abs() < 2e-3 && c[3].abs() < 2e-3, "{c:?}");
+        // a texel of the opposite (+Z) wall in its texel frame (z = inward normal −ẑ): the
+        // y₁₀ coefficient is C1·π·FF(texel → entry), the irradiance at its normal
+        let tex = response_texels(3);
+        let hemi = DirectionSet::uniform_hemisphere(16384);
+        for t in tex.face_range(5) {
+            let c = gather_sh(1, SMALL, &rows, 1, &hemi, 2.0 * pi, &|_| {
+                let rot = texel_rotation(1, 2, t);
+                (tex.position(t), Box::new(move |l| to_world(5, l, rot)) as DirMap)
+            });
+            let e = pi * point_polygon_form_factor(tex.position(t), tex.normal(t), &poly);
+            assert!((c[2] - c1 * e).abs() < 0.01 * e, "texel {t}: {} vs {}", c[2], c1 * e);
         }
     }
 

@@ -79,8 +79,8 @@ impl DictOps {
         }
         let meta: serde_json::Value = serde_json::from_str(a.meta_json()).map_err(aerr)?;
         let kv = meta["kind_version"].as_u64().unwrap_or(0);
-        if !(1..=3).contains(&kv) {
-            return Err(aerr(format!("MRTD kind_version {kv} is not supported (this penumbra reads 1 to 3)")));
+        if !(1..=4).contains(&kv) {
+            return Err(aerr(format!("MRTD kind_version {kv} is not supported (this penumbra reads 1 to 4)")));
         }
         let face_res =
             meta["params"]["face_res"].as_u64().ok_or_else(|| aerr("meta.params.face_res missing"))? as usize;

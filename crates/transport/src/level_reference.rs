@@ -335,6 +335,52 @@ pub fn reference(
     }
 }
 
+/// One-bounce reference at arbitrary receivers of the level (`penumbra verify mrt`'s vector
+/// and volume checks): a point on a wall or inside a block, a unit normal, and for a tilted
+/// (normal-mapped) normal the wall's own normal as the horizon (rays below it carry nothing).
+/// `rays` cosine rays about the normal in two halves, as [`reference`]; returns the estimates
+/// and half the difference of the two halves.
+pub fn reference_at(
+    g: &LevelGeometry<'_>,
+    receivers: &[crate::drt_reference::Receiver],
+    lights: &[PointLight],
+    albedo: f64,
+    rays: usize,
+    seed: u64,
+    tick: &(dyn Fn(u64) + Sync),
+) -> (Vec<f64>, Vec<f64>) {
+    let half = (rays / 2).max(1);
+    let dirs = DirectionSet::cosine(half);
+    let per: Vec<[f64; 2]> = receivers
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let (t, bt) = penumbra_math::warp::orthonormal_basis(r.normal);
+            let mut est = [0.0f64; 2];
+            for (h, acc) in est.iter_mut().enumerate() {
+                let phi = 2.0 * core::f64::consts::PI * unit_f64(hash4(seed, STAGE + 2, i as u64, h as u64));
+                let (s, c) = phi.sin_cos();
+                for l in &dirs.dirs {
+                    let l = [l[0] * c - l[1] * s, l[0] * s + l[1] * c, l[2]];
+                    let d: [f64; 3] = core::array::from_fn(|m| l[0] * t[m] + l[1] * bt[m] + l[2] * r.normal[m]);
+                    if r.horizon.is_some_and(|hz| hz[0] * d[0] + hz[1] * d[1] + hz[2] * d[2] <= 0.0) {
+                        continue;
+                    }
+                    let Some(hit) = g.trace(r.block, r.point, d) else { continue };
+                    let fr = g.frame(hit.block, hit.face);
+                    *acc += g.direct(hit.block, hit.point, fr[2], lights);
+                }
+                *acc *= albedo / half as f64;
+            }
+            if i % 64 == 63 {
+                tick(64);
+            }
+            [0.5 * (est[0] + est[1]), 0.5 * (est[0] - est[1])]
+        })
+        .collect();
+    (per.iter().map(|v| v[0]).collect(), per.iter().map(|v| v[1]).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

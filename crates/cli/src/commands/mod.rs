@@ -17,6 +17,7 @@ pub mod verify_drt;
 pub mod verify_drt_vector;
 pub mod verify_fiv;
 pub mod verify_mrt;
+pub mod verify_mrt_vector;
 pub mod verify_shadows;
 pub mod verify_vo;
 pub mod vo;

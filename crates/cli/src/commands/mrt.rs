@@ -161,6 +161,10 @@ pub struct MrtDictArgs {
     /// Cosine gather rays per texel for the interface response G.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(16..=65536))]
     pub response_rays: u32,
+    /// Skip the interfaces' vector and volume response U_r⃗, U_rvol (MRTD kind_version 3
+    /// bytes, as before they existed).
+    #[arg(long)]
+    pub no_interface_vectors: bool,
     /// Output asset (.mrtd). Parent directories are created.
     #[arg(short = 'o', long)]
     pub output: PathBuf,
@@ -239,6 +243,8 @@ pub struct DictOptions {
     pub interface_enrich: Option<u32>,
     /// Response gather rays.
     pub response_rays: Option<u32>,
+    /// Interface vector and volume response on/off.
+    pub interface_vectors: Option<bool>,
 }
 
 impl DictOptions {
@@ -272,6 +278,7 @@ impl DictOptions {
             lf_super: m.lf_super,
             interface_enrich: m.interface_enrich,
             response_rays: m.response_rays,
+            interface_vectors: m.interface_vectors,
         }
     }
 }
@@ -319,6 +326,9 @@ pub fn params(o: &DictOptions) -> Result<DictParams, CliError> {
     }
     if let Some(x) = o.interfaces {
         p.interfaces = x;
+    }
+    if let Some(x) = o.interface_vectors {
+        p.interface_vectors = x;
     }
     set(&mut p.interface.k_rlf, o.k_rlf);
     set(&mut p.interface.k_r, o.k_r);
@@ -416,6 +426,7 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         lf_super: Some(a.lf_super),
         interface_enrich: Some(a.interface_enrich),
         response_rays: Some(a.response_rays),
+        interface_vectors: Some(!a.no_interface_vectors),
     };
     let p = params(&o)?;
     let out = bake_to(&p, &a.output, mode)?;
@@ -462,6 +473,14 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 im["propagation_rel_error"][2].as_f64().unwrap_or(f64::NAN),
                 im["response_rel_error"].as_f64().unwrap_or(f64::NAN),
             );
+            if let Some(e) = im.get("vector_response_rel_error").and_then(serde_json::Value::as_f64) {
+                eprintln!(
+                    "  interface vector/volume response (U_r⃗, U_rvol): outside the k_r coefficients {:.3} / {:.3}; irradiance at the normal vs U_r {:.3}",
+                    e,
+                    im["volume_response_rel_error"].as_f64().unwrap_or(f64::NAN),
+                    im["vector_response_consistency"].as_f64().unwrap_or(f64::NAN),
+                );
+            }
         }
         if let Some(shapes) = m["shapes"].as_object() {
             for (name, s) in shapes {

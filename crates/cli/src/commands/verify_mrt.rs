@@ -2,6 +2,7 @@
 
 use crate::commands::mrt_level::{LevelSource, bake, load_dict, resolve, validated};
 use crate::commands::print_json;
+use crate::commands::verify_mrt_vector::TILT_DEG as TILT;
 use crate::exit::{CliError, ExitCode};
 use crate::fsutil::ensure_parent;
 use crate::progress::{ProgressMode, Reporter};
@@ -11,7 +12,9 @@ use penumbra_asset::{Asset, AssetFile};
 use penumbra_math::progress::Progress;
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
 use penumbra_transport::level::{Level, Links};
-use penumbra_transport::level_reference::{LevelGeometry, PointLight, direct_at, level_texels, reference};
+use penumbra_transport::level_reference::{
+    LevelGeometry, PointLight, direct_at, level_texels, reference, reference_at,
+};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -55,6 +58,12 @@ pub struct VerifyMrtArgs {
     /// Exit with code 1 when rel_error_one_bounce exceeds this (a quality gate for CI).
     #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_rel_error: Option<f64>,
+    /// Exit with code 1 when rel_error_vector (tilted normals on the walls) exceeds this.
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
+    pub max_rel_error_vector: Option<f64>,
+    /// Exit with code 1 when rel_error_volume (probes at interior points) exceeds this.
+    #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
+    pub max_rel_error_volume: Option<f64>,
     /// One JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -237,6 +246,21 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
     let one = to64(&one, f64::from(scale));
     let none = to64(&none, f64::from(scale));
     let multi = to64(&multi, 1.0);
+    // the vector and volume response of the one-bounce state (b and r of `indirect` with
+    // interfaces), and what evaluating it costs
+    let mut tmp = vec![0.0f32; n];
+    rt.indirect(&l_d, &mut tmp, true);
+    let vchecks = crate::commands::verify_mrt_vector::build(&rt, &one, scale, &geo, &tex);
+    let ms_vector = vchecks.as_ref().map(|_| {
+        let mut vbuf = vec![[0.0f32; 4]; n];
+        let mut sh = Vec::new();
+        median_ms(5, || {
+            rt.vector_coefficients(&mut vbuf);
+            for x in 0..level.blocks.len() {
+                rt.probe_sh(x, &mut sh);
+            }
+        })
+    });
     // the reference
     let rep = Reporter::new("verify mrt", mode);
     let done = AtomicU64::new(0);
@@ -246,9 +270,24 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         let v = done.fetch_add(k, Ordering::Relaxed) + k;
         rep.update("reference", v.min(total), total);
     });
+    let vref = vchecks.as_ref().map(|vc| {
+        let total = vc.receivers.len() as u64;
+        let done = AtomicU64::new(0);
+        reference_at(&geo, &vc.receivers, &lights, a.albedo, a.rays as usize, a.ref_seed, &|k| {
+            let v = done.fetch_add(k, Ordering::Relaxed) + k;
+            rep.update("reference (vector, volume)", v.min(total), total);
+        })
+    });
     rep.finish();
     let reference_seconds = t_ref.elapsed().as_secs_f64();
-    let per_block: Vec<serde_json::Value> = (0..level.blocks.len())
+    let (vector, vector_blocks) = match (&vchecks, &vref) {
+        (Some(vc), Some((vone, vhalf))) => {
+            let (top, per) = vc.report(vone, vhalf, level.blocks.len());
+            (top, per)
+        }
+        _ => (serde_json::Value::Null, Vec::new()),
+    };
+    let mut per_block: Vec<serde_json::Value> = (0..level.blocks.len())
         .map(|b| {
             let rg = tex.offsets[b]..tex.offsets[b + 1];
             json!({
@@ -261,6 +300,11 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
             })
         })
         .collect();
+    for (pb, vb) in per_block.iter_mut().zip(&vector_blocks) {
+        if let (Some(o), Some(w)) = (pb.as_object_mut(), vb.as_object()) {
+            o.extend(w.iter().map(|(k, x)| (k.clone(), x.clone())));
+        }
+    }
     let mut v = json!({
         "level": what,
         "blocks": level.blocks.len(),
@@ -280,13 +324,34 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         "lights_outside_prior": outside_prior,
         "ms_runtime": ms_runtime,
         "ms_runtime_multi_bounce": ms_multi,
+        "ms_runtime_vector": ms_vector,
         "per_block": per_block,
         "reference_seconds": reference_seconds,
         "seconds": start.elapsed().as_secs_f64(),
     });
+    // the vector and volume keys at the top level (null without U_b⃗/U_bvol)
+    if let (Some(o), Some(w)) = (v.as_object_mut(), vector.as_object()) {
+        o.extend(w.iter().map(|(k, x)| (k.clone(), x.clone())));
+    } else if let Some(o) = v.as_object_mut() {
+        for k in ["rel_error_vector", "rel_error_volume"] {
+            o.insert(k.into(), serde_json::Value::Null);
+        }
+    }
     let failures = crate::commands::gate::apply(
         &mut v,
-        &[crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_one_bounce", max: a.max_rel_error }],
+        &[
+            crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_one_bounce", max: a.max_rel_error },
+            crate::commands::gate::Gate {
+                key: "max_rel_error_vector",
+                metric: "rel_error_vector",
+                max: a.max_rel_error_vector,
+            },
+            crate::commands::gate::Gate {
+                key: "max_rel_error_volume",
+                metric: "rel_error_volume",
+                max: a.max_rel_error_volume,
+            },
+        ],
     );
     if let Some(p) = &a.image {
         let png = top_view(&tex, &one, &r.one_bounce, d.face_res);
@@ -311,6 +376,25 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
             ms_multi,
             a.bounces
         );
+        if !vector.is_null() {
+            let g = |k: &str| vector[k].as_f64().unwrap_or(f64::NAN);
+            eprintln!(
+                "  vector (normals tilted {}°, one bounce): rel. error {:.4} (b only {:.4}, untilted scalar {:.4}; reference noise {:.4})\n  volume probes (6 axis normals): rel. error {:.4} (b only {:.4}; reference noise {:.4}){}",
+                TILT,
+                g("rel_error_vector"),
+                g("rel_error_vector_b_only"),
+                g("rel_error_vector_scalar"),
+                g("reference_noise_vector"),
+                g("rel_error_volume"),
+                g("rel_error_volume_b_only"),
+                g("reference_noise_volume"),
+                if vector["interface_vectors"].as_bool() == Some(true) {
+                    ""
+                } else {
+                    "\n  (the dictionary has no interface vector response U_r⃗/U_rvol: both are b only; re-bake it)"
+                }
+            );
+        }
     }
     for l in &outside_prior {
         eprintln!(

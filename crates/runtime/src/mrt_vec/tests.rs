@@ -130,8 +130,17 @@ fn runtime<'a>(f: &'a Fixture, q: u32, exclude: bool) -> MrtRuntime<'a> {
         u_r_idx: [None; 6],
         u_bvec: Some(&f.u_bvec),
         u_bvol: Some((&f.u_bvol, &f.probes)),
+        positions: None,
     };
-    let dict = MrtDictionary { shapes: vec![shape], u_r: &[], k_r: 1, face_texels: 1, exclude_same_face: exclude };
+    let dict = MrtDictionary {
+        shapes: vec![shape],
+        u_r: &[],
+        k_r: 1,
+        face_texels: 1,
+        exclude_same_face: exclude,
+        vectors: None,
+        face_frames: None,
+    };
     let level = MrtLevel {
         shapes: vec![0],
         rotations: vec![q],
@@ -210,5 +219,58 @@ fn probe_irradiance_known_answer_with_rotation_and_trilinear_blend() {
         // halfway between probes 0 and 1 along x, clamped outside the centres
         let e = rt.probe_irradiance(0, &sh, [0.5, 0.25, 0.0], [0.0, 1.0, 0.0]);
         assert!((e - PI * 1.5 * b0).abs() < 1e-4 * e, "{e}");
+    }
+}
+
+/// The MRTD `face_frames` (origin, u, v, n per face; `schemas/asset-format.md`).
+const FACE_FRAMES: [f32; 72] = [
+    0., 0., 1., 0., 0., -1., 0., 1., 0., 1., 0., 0., //
+    1., 0., 0., 0., 0., 1., 0., 1., 0., -1., 0., 0., //
+    0., 0., 0., 0., 0., 1., 1., 0., 0., 0., 1., 0., //
+    0., 1., 0., 1., 0., 0., 0., 0., 1., 0., -1., 0., //
+    0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., //
+    1., 0., 1., -1., 0., 0., 0., 1., 0., 0., 0., -1.,
+];
+
+#[test]
+fn interface_tangent_maps_and_canonical_probes_follow_the_quarter_turns() {
+    let t = crate::mrt::tangent_maps(&FACE_FRAMES).unwrap();
+    for q in 0..4 {
+        // side faces keep v = +Y and turn into side faces with the same (u, v): identity
+        for g in [0, 1, 4, 5] {
+            assert_eq!(t[q][g], [1.0, 0.0, 0.0, 1.0], "q {q} face {g}");
+        }
+        for g in [2, 3] {
+            let m = t[q][g];
+            // a rotation (floor and ceiling turn in their plane), q turns of a quarter turn
+            assert!((m[0] * m[3] - m[1] * m[2] - 1.0).abs() < 1e-6, "q {q} face {g}: {m:?}");
+            // the spec's closed form: floor [[c, −s], [s, c]], ceiling [[c, s], [−s, c]]
+            let (c, sn) = ([1.0, 0.0, -1.0, 0.0][q], [0.0, 1.0, 0.0, -1.0][q]);
+            let sg = if g == 2 { 1.0 } else { -1.0 };
+            assert_eq!(m, [c, -sg * sn, sg * sn, c], "q {q} face {g}");
+        }
+    }
+    // one turn, floor (u = +z, v = +x): R(x, y, z) = (−z, y, x) takes u to −x = −v_c and
+    // v to +z = u_c, so the canonical tangent (u_c, v_c) components (a, b) are (b, −a) in the
+    // texel's frame: Mᵀ = [[0, −1], [1, 0]]; the ceiling (u = +x, v = +z) turns the other way
+    assert_eq!(t[1][2], [0.0, -1.0, 1.0, 0.0]);
+    assert_eq!(t[1][3], [0.0, 1.0, -1.0, 0.0]);
+    // the canonical probe of a probe is at its centre turned by (x, y, z) → (1 − z, y, x)
+    for res in [1usize, 2, 3, 4] {
+        for q in 0..4u32 {
+            let mut seen = vec![false; res * res * res];
+            for p in 0..res * res * res {
+                let c = |i: usize| (i as f32 + 0.5) / res as f32;
+                let mut pos = [c(p % res), c((p / res) % res), c(p / (res * res))];
+                for _ in 0..q {
+                    pos = [1.0 - pos[2], pos[1], pos[0]];
+                }
+                let pc = canonical_probe(p, res, q);
+                let want = [c(pc % res), c((pc / res) % res), c(pc / (res * res))];
+                assert!((0..3).all(|k| (pos[k] - want[k]).abs() < 1e-6), "res {res} q {q} probe {p}");
+                seen[pc] = true;
+            }
+            assert!(seen.iter().all(|&s| s), "a permutation");
+        }
     }
 }
