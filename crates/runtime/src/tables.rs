@@ -426,7 +426,9 @@ impl<'a> ShTables<'a> {
         let u = a2 / (1.0 + (1.0 - a2).sqrt());
         let x = u * self.far.inv_u_top;
         core::array::from_fn(|l| {
-            let c = &self.far.shape[l];
+            // `shape[l]` has nonzero coefficients at indices ≤ l < N only: Horner steps over the
+            // zero ones above add exact zeros (u ≥ 0 is finite here), so they are skipped
+            let c = &self.far.shape[l][..N.min(MAX_ORDER)];
             let mut s = 0.0f32;
             for &ck in c.iter().rev() {
                 s = s * u + ck;

@@ -216,6 +216,23 @@ fn smooth_clamp_weights_shape() {
 }
 
 #[test]
+fn smooth_clamp_stays_smooth_at_the_largest_theta_samples() {
+    // issue #14: at K = 16384 a ramp of a fixed number of grid cells (5) would be a step in α.
+    // The ramp keeps its K = 256 width in α (5/255), i.e. ≈ 5·16383/255 ≈ 321 entries.
+    let k = 16384;
+    let w = smooth_clamp_weights(k, 1.0 / 15.0);
+    let inner = w.iter().filter(|&&x| x > 0.0 && x < 1.0).count();
+    assert!((300..=330).contains(&inner), "{inner} ramp entries");
+    let first = w.iter().position(|&x| x > 0.0).unwrap();
+    let last = w.iter().position(|&x| x == 1.0).unwrap();
+    let width = (last - first) as f64 / (k - 1) as f64;
+    assert!((width - 5.0 / 255.0).abs() < 2.0 / (k - 1) as f64, "ramp width {width} in α");
+    for p in w.windows(2) {
+        assert!(p[1] >= p[0] && p[1] - p[0] < 0.01, "a jump of {} in the ramp", p[1] - p[0]);
+    }
+}
+
+#[test]
 fn tables_bake_small() {
     let mut p = TablesParams::new(3);
     p.theta_samples = 64;

@@ -5,7 +5,7 @@
 //! what [`ShadowEvaluator::irradiance`] returns per receiver, for any batch composition
 //! (tested bit for bit) — batching is a speed choice, never an accuracy one.
 
-use super::rules::replace_parts;
+use super::rules::{self, replace_parts};
 use super::{CutBlocker, ShadowEvaluator, Sphere};
 use crate::sh::MAX_ORDER;
 
@@ -39,6 +39,18 @@ fn replace_lanes(s: Sphere, rc: &Receivers) -> ([V; 3], V, [bool; LANES]) {
         keep[lane] = k;
     }
     (center, radius, keep)
+}
+
+/// Whether the rules keep sphere `s` (valid) unchanged on every lane ([`rules::unchanged`]).
+#[inline(always)]
+fn unchanged_on_all_lanes(s: Sphere, rc: &Receivers) -> bool {
+    let mut all = [false; LANES];
+    for lane in 0..LANES {
+        let p = [rc.p[0][lane], rc.p[1][lane], rc.p[2][lane]];
+        let n = [rc.n[0][lane], rc.n[1][lane], rc.n[2][lane]];
+        all[lane] = rules::unchanged(s.center, s.radius, p, n);
+    }
+    all.iter().all(|&u| u)
 }
 
 impl ShadowEvaluator<'_> {
@@ -138,7 +150,9 @@ impl ShadowEvaluator<'_> {
             if !s0.is_valid() {
                 continue; // as the scalar path: invalid blockers are ignored
             }
-            let (center, radius, mut keep) = if rules {
+            // a blocker entirely in front of every lane's tangent plane (the common case) is
+            // kept as it is by the rule: skip the rule's other cases (same result, bit for bit)
+            let (center, radius, mut keep) = if rules && !unchanged_on_all_lanes(s0, rc) {
                 replace_lanes(s0, rc)
             } else {
                 (

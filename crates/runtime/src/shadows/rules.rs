@@ -76,14 +76,35 @@ macro_rules! real {
 real!(f32);
 real!(f64);
 
+/// `h = (c − p)·N` and `‖c − p‖²`, as the rule computes them.
+#[inline(always)]
+fn height_and_distance2<T: Real>(c: [T; 3], p: [T; 3], n: [T; 3]) -> (T, T) {
+    let (cpx, cpy, cpz) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
+    (cpx * n[0] + cpy * n[1] + cpz * n[2], cpx * cpx + cpy * cpy + cpz * cpz)
+}
+
+/// The "entirely in front, receiver outside" case (the blocker is kept as it is).
+#[inline(always)]
+fn unchanged_by<T: Real>(h: T, d2: T, r: T) -> bool {
+    let inside = d2 < r * r;
+    !inside && h >= r
+}
+
+/// Whether the rule keeps blocker `(c, r)` unchanged at `(p, n)` (entirely in front of `T_p`,
+/// `p` outside it): then [`replace_parts`] returns `(c, r, true)` exactly for a valid blocker
+/// (`r > 0`), and a caller may skip it. Same operations as the rule, so the same decision.
+#[inline(always)]
+pub fn unchanged<T: Real>(c: [T; 3], r: T, p: [T; 3], n: [T; 3]) -> bool {
+    let (h, d2) = height_and_distance2(c, p, n);
+    unchanged_by(h, d2, r)
+}
+
 /// The rule for blocker `(c, r)` at receiver `(p, n)`, every case evaluated and selected
 /// (no early return, so a loop over receiver lanes vectorises): the effective centre and
 /// radius, and whether the blocker is kept. A NaN anywhere gives `keep = false`.
 #[inline(always)]
 pub fn replace_parts<T: Real>(c: [T; 3], r: T, p: [T; 3], n: [T; 3]) -> ([T; 3], T, bool) {
-    let (cpx, cpy, cpz) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
-    let h = cpx * n[0] + cpy * n[1] + cpz * n[2];
-    let d2 = cpx * cpx + cpy * cpy + cpz * cpz;
+    let (h, d2) = height_and_distance2(c, p, n);
     let q1 = [c[0] + n[0] * -h, c[1] + n[1] * -h, c[2] + n[2] * -h];
     // outside and straddling: the radius grows from the inside rule's to S''s
     let dc = (r * r - h * h).max(T::ZERO).sqrt();
@@ -92,7 +113,7 @@ pub fn replace_parts<T: Real>(c: [T; 3], r: T, p: [T; 3], n: [T; 3]) -> ([T; 3],
     let t = if dc > T::ZERO { (in_plane - dc).div(dc).clamp(T::ZERO, T::ONE) } else { T::ONE };
     let straddle = (T::ONE - t) * h.max(T::ZERO) + t * T::HALF * (h + r);
     let inside = d2 < r * r;
-    let unchanged = !inside && h >= r;
+    let unchanged = unchanged_by(h, d2, r);
     let removed = if inside { h <= T::ZERO } else { h <= -r };
     let rho = if inside { h } else { straddle };
     let center = [
