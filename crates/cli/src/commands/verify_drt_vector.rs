@@ -5,7 +5,8 @@
 //! - **Tilted normals on the walls** (normal maps): every scene texel of a receiving block
 //!   outside clutter, its normal tilted by 40° toward +u, +v, −u, −v of its face (cycling by
 //!   texel); light from below the wall does not count (`Receiver::horizon`). Runtime: MRT's
-//!   `s·U_b⃗ (b − b_g)` (b only, [`MrtRuntime::vector_coefficients`]) alone and plus DRT's
+//!   `s·U_b⃗ (b − b_g)` plus, with a kind_version 4 dictionary, the interface part `U_r⃗ r`
+//!   ([`MrtRuntime::vector_coefficients`]) alone and plus DRT's
 //!   `s·ΔU_b⃗ b + ΔU_c⃗ c`, through [`ohlsh_irradiance`].
 //! - **Tilted normals on the clutter**: every clutter texel in a block, tilted the same way in
 //!   its `orthonormal_basis` frame: `C_b⃗`/`C_c⃗` ([`world_ohlsh_irradiance`]) against MRT's
