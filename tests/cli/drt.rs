@@ -344,6 +344,56 @@ fn gltf_lightmap_uvs_are_the_clutter_charts() {
 }
 
 #[test]
+fn an_incremental_re_bake_copies_unchanged_records_from_the_previous_asset() {
+    // two closed rooms, a pillar in each; the asset at -o is the one the state was baked with
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let level = dir.path().join("rooms.toml");
+    std::fs::write(
+        &level,
+        "[[block]]\nshape = \"closed\"\ntranslation = [0.5, 0.5, 0.5]\n\
+         [[block]]\nshape = \"closed\"\ntranslation = [2.5, 0.5, 0.5]\n",
+    )
+    .unwrap();
+    let pillars = |x0: f64| {
+        format!(
+            "[[clutter]]\nbox = {{ size = [0.12, 0.75, 0.12], faces = \"no-bottom\" }}\ntranslate = [{x0}, 0.0, 0.4]\n\
+             [[clutter]]\nbox = {{ size = [0.12, 0.75, 0.12], faces = \"no-bottom\" }}\ntranslate = [2.6, 0.0, 0.5]\n"
+        )
+    };
+    let c = dir.path().join("c.toml");
+    let state = dir.path().join("s.state");
+    let out = dir.path().join("out.drto");
+    let bake = |x0: f64, out: &std::path::Path, with_state: bool| {
+        std::fs::write(&c, pillars(x0)).unwrap();
+        let mut args = vec!["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap()];
+        if with_state {
+            args.extend(["--state", state.to_str().unwrap()]);
+        }
+        let (code, v, stderr) = drt_json(&args, &d, out);
+        assert_eq!(code, 0, "{stderr}");
+        (v, std::fs::read(out).unwrap())
+    };
+    bake(0.3, &out, true);
+    let (v, inc) = bake(0.6, &out, true);
+    let i = &v["incremental"];
+    assert_eq!(i["used"], true, "{v}");
+    // room 1's block and pillar are copied; room 0's block and the moved pillar assembled
+    assert_eq!((i["records_reused"].as_u64(), i["records_assembled"].as_u64()), (Some(2), Some(2)), "{v}");
+    assert!(i.get("records_reason").is_none(), "{v}");
+    let (_, full) = bake(0.6, &dir.path().join("full.drto"), false);
+    assert!(inc == full, "copied records give a full bake's bytes");
+    // the asset at -o changed since: every record is assembled, and the reason is given
+    std::fs::write(&out, b"not the asset").unwrap();
+    let (v, inc) = bake(0.3, &out, true);
+    let i = &v["incremental"];
+    assert_eq!(i["records_reused"].as_u64(), Some(0), "{v}");
+    assert!(i["records_reason"].as_str().unwrap().contains("not the asset the state was baked with"), "{v}");
+    let (_, full) = bake(0.3, &dir.path().join("full0.drto"), false);
+    assert!(inc == full);
+}
+
+#[test]
 fn moving_one_pillar_re_bakes_incrementally_to_the_full_bake_bytes() {
     let dir = tempfile::tempdir().unwrap();
     let d = small_dict(dir.path());
