@@ -29,8 +29,8 @@ use serde_json::{Value, json};
 /// MRT's `U_bvol` irradiance at receivers (albedo-scaled).
 pub type ProbeEval<'a> = dyn Fn(&[Receiver]) -> Result<Vec<f64>, CliError> + 'a;
 
-/// Tilt of the normal-mapped normals, degrees.
-const TILT_DEG: f64 = 40.0;
+// the same tilted normals as `verify mrt`'s vector check, so the two tables compare
+use super::verify_mrt_vector::{TILT_DEG, tilt, to32};
 /// Volume points per receiving block.
 const POINTS: usize = 32;
 
@@ -44,17 +44,6 @@ pub struct VectorChecks {
     values: Vec<(f64, f64)>,
     /// Scene texels inside clutter (left out).
     probes_inside: usize,
-}
-
-fn tilt(fr: [[f64; 3]; 3], k: usize) -> ([f64; 3], [f64; 3]) {
-    let (s, c) = TILT_DEG.to_radians().sin_cos();
-    let (su, sv) = [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][k % 4];
-    let local = [su * s, sv * s, c];
-    (local, core::array::from_fn(|m| local[0] * fr[0][m] + local[1] * fr[1][m] + local[2] * fr[2][m]))
-}
-
-fn to32(v: [f64; 3]) -> [f32; 3] {
-    v.map(|x| x as f32)
 }
 
 /// Builds the checks from the runtime state of the last one-bounce evaluation (`mrt`'s `b`

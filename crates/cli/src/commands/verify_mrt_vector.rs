@@ -46,14 +46,16 @@ pub struct VectorChecks {
     interface_vectors: bool,
 }
 
-fn tilt(fr: [[f64; 3]; 3], k: usize) -> ([f64; 3], [f64; 3]) {
+/// The `k`-th tilted normal of a texel with frame `fr` (`TILT_DEG` toward +u, +v, −u, −v,
+/// cycling): `(local, world)`. Shared with `verify drt`'s vector check.
+pub(crate) fn tilt(fr: [[f64; 3]; 3], k: usize) -> ([f64; 3], [f64; 3]) {
     let (s, c) = TILT_DEG.to_radians().sin_cos();
     let (su, sv) = [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][k % 4];
     let local = [su * s, sv * s, c];
     (local, core::array::from_fn(|m| local[0] * fr[0][m] + local[1] * fr[1][m] + local[2] * fr[2][m]))
 }
 
-fn to32(v: [f64; 3]) -> [f32; 3] {
+pub(crate) fn to32(v: [f64; 3]) -> [f32; 3] {
     v.map(|x| x as f32)
 }
 
