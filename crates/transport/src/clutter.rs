@@ -957,9 +957,26 @@ impl ClutterScene {
         tmin: f64,
         tmax: f64,
     ) -> Option<ClutterHit> {
+        self.closest_among_except_iter(insts.iter().copied(), skip, o, d, inv, tmin, tmax)
+    }
+
+    /// [`ClutterScene::closest_among_except_inv`] over instances in any order-preserving
+    /// iterator (the DRT ray loops' pre-filtered candidates).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn closest_among_except_iter(
+        &self,
+        insts: impl Iterator<Item = usize>,
+        skip: usize,
+        o: [f64; 3],
+        d: [f64; 3],
+        inv: [f64; 3],
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ClutterHit> {
         // (t, global triangle or usize::MAX for a box, instance, box face)
         let mut best: Option<(f64, usize, usize, usize)> = None;
-        for &i in insts {
+        for i in insts {
             if i == skip {
                 continue;
             }

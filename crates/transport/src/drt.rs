@@ -46,7 +46,6 @@
 use crate::TransportError;
 use crate::clutter::ClutterScene;
 use crate::drt_state::{Acc, DrtState, IncrementalStats, Sums, W_SCALE, clutter_origin, clutter_texel, scene_texel};
-use crate::gather::DirectionSet;
 use crate::level::{Level, Links};
 use crate::level_reference::LevelGeometry;
 use crate::shape::{FACE_COUNT, Shape, Texels};
@@ -636,6 +635,10 @@ pub struct Scene<'a> {
     /// Per block and local face: the affine maps world point → face `(u, v)`,
     /// `[a_u (3), c_u, a_v (3), c_v]` ([`wall_uv_maps`]).
     pub(crate) wall_uv: Vec<[[f64; 8]; FACE_COUNT]>,
+    /// The ray loops' level walk and clutter pre-filter.
+    pub(crate) walk: crate::drt_walk::Walk,
+    /// Per block: its shape's texels (the wall hits' bilinear taps).
+    pub(crate) block_texels: Vec<&'a Texels>,
 }
 
 /// Per local face of `blk`, the affine maps from a world point to the face's `(u, v)`:
@@ -673,7 +676,9 @@ impl<'a> Scene<'a> {
             }
         }
         let wall_uv = geo.level.blocks.iter().map(wall_uv_maps).collect();
-        Self { geo, clutter, dict, block_clutter, wall_uv }
+        let walk = crate::drt_walk::Walk::new(geo.level, geo.links, geo.missing, clutter, &block_clutter);
+        let block_texels = geo.level.blocks.iter().map(|b| &dict.shapes[b.shape].texels).collect();
+        Self { geo, clutter, dict, block_clutter, wall_uv, walk, block_texels }
     }
 }
 
@@ -736,15 +741,37 @@ impl Scene<'_> {
         d: [f64; 3],
         skip: usize,
     ) -> RayHit {
+        self.resolve_inv(wall, segs, x, d, d.map(|c| 1.0 / c), skip)
+    }
+
+    /// [`Scene::resolve`] with the direction's reciprocals `inv = 1/d` from the caller.
+    #[inline]
+    pub(crate) fn resolve_inv(
+        &self,
+        wall: Option<(usize, usize, [f64; 3])>,
+        segs: &[(usize, f64, f64)],
+        x: [f64; 3],
+        d: [f64; 3],
+        inv: [f64; 3],
+        skip: usize,
+    ) -> RayHit {
         let mut hit = None;
-        let mut inv = None;
         for &(y, t0, t1) in segs.iter() {
-            let insts = &self.block_clutter[y];
+            let insts = self.walk.instances(y);
             if insts.is_empty() {
                 continue;
             }
-            let inv = *inv.get_or_insert_with(|| d.map(|c| 1.0 / c));
-            if let Some(h) = self.clutter.closest_among_except_inv(insts, skip, x, d, inv, t0.max(1e-9), t1) {
+            let tmin = t0.max(1e-9);
+            // the pre-filter's survivors in order; the search repeats their padded test
+            let found = match self.walk.prefilter(y, x, inv, (tmin, t1)) {
+                Some(0) => continue,
+                Some(mask) => {
+                    let cand = crate::drt_walk::Bits(mask).map(|j| insts[j]);
+                    self.clutter.closest_among_except_iter(cand, skip, x, d, inv, tmin, t1)
+                }
+                None => self.clutter.closest_among_except_inv(insts, skip, x, d, inv, tmin, t1),
+            };
+            if let Some(h) = found {
                 hit = Some(h);
                 break;
             }
@@ -912,8 +939,8 @@ pub fn bake_incremental(
     let sc_old = Scene::new(geo, old, dict);
     let sc = Scene::new(LevelGeometry { level, links, missing: &dict.missing }, new, dict);
     let boxes: Vec<[[f64; 3]; 2]> = moved.iter().flat_map(|&i| [old.padded_bounds(i), new.padded_bounds(i)]).collect();
-    let dirs = DirectionSet::cosine(params.rays);
-    let cdirs = DirectionSet::cosine(params.clutter_rays);
+    let dirs = crate::drt_walk::coherent_cosine(params.rays);
+    let cdirs = crate::drt_walk::coherent_cosine(params.clutter_rays);
     let upper = dirs.dirs.iter().chain(&cdirs.dirs).all(|d| d[2] >= 0.0);
     let cull = crate::drt_state::Cull::new(boxes, upper);
     let keep = Some(&cull);
@@ -1096,8 +1123,8 @@ fn trace(
     progress: &dyn Progress,
 ) -> (Vec<Vec<Sums>>, Vec<Vec<Option<Sums>>>) {
     let (dict, level, clutter) = (sc.dict, sc.geo.level, sc.clutter);
-    let dirs = DirectionSet::cosine(params.rays);
-    let cdirs = DirectionSet::cosine(params.clutter_rays);
+    let dirs = crate::drt_walk::coherent_cosine(params.rays);
+    let cdirs = crate::drt_walk::coherent_cosine(params.clutter_rays);
     // scene texels of every receiving block, flattened; clutter texels of the instances
     let items: Vec<(usize, usize)> =
         recv.iter().flat_map(|&x| (0..dict.shapes[level.blocks[x].shape].texels.len()).map(move |t| (x, t))).collect();
@@ -1678,7 +1705,7 @@ mod tests {
         let rec = b.du_b.iter().find(|r| r.src == 0).unwrap();
         let tex = &d.shapes[0].texels;
         let n = tex.len();
-        let dirs = DirectionSet::cosine(p.rays);
+        let dirs = crate::gather::DirectionSet::cosine(p.rays);
         let mut max_err: f64 = 0.0;
         let mut max_val: f64 = 0.0;
         for t in 0..n {

@@ -191,16 +191,17 @@ impl Acc {
             },
         };
         self.last = s;
-        let tex = &sc.dict.shapes[sc.geo.level.blocks[y].shape].texels;
+        let taps = sc.block_texels[y].bilinear(face, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
         let slot = &mut self.slots[s];
-        for (t, bw) in tex.bilinear(face, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) {
+        // the weights sum to one: some tap is nonzero, so the slot is in use
+        if slot.touched.is_empty() {
+            self.used.push(s);
+        }
+        for (t, bw) in taps {
             // bw ∈ [0, 1]: round half up without a libm call
             let q = (bw * W_SCALE + 0.5) as i64;
             if q == 0 {
                 continue;
-            }
-            if slot.touched.is_empty() {
-                self.used.push(s);
             }
             if !slot.on[t] {
                 slot.on[t] = true;
@@ -305,9 +306,10 @@ pub(crate) fn scene_texel(
             continue;
         }
         kept += 1;
-        let wall = sc.geo.trace_segments(x, p, d, segs).map(|h| (h.block, h.face, h.point));
+        let inv = d.map(|c| 1.0 / c);
+        let wall = sc.walk.trace(x, p, d, inv, segs);
         for &(s, sign) in scenes {
-            let RayHit::Clutter(wall, hit) = s.resolve(wall, segs, p, d, usize::MAX) else { continue };
+            let RayHit::Clutter(wall, hit) = s.resolve_inv(wall, segs, p, d, inv, usize::MAX) else { continue };
             if let Some((y, g, q)) = wall {
                 acc.wall(sc, y, g, q, sign);
             }
@@ -389,9 +391,10 @@ pub(crate) fn clutter_texel(
             continue;
         }
         kept += 1;
-        let wall = sc.geo.trace_segments(b, o, d, segs).map(|h| (h.block, h.face, h.point));
+        let inv = d.map(|c| 1.0 / c);
+        let wall = sc.walk.trace(b, o, d, inv, segs);
         for &(s, sign) in scenes {
-            match s.resolve(wall, segs, o, d, skip) {
+            match s.resolve_inv(wall, segs, o, d, inv, skip) {
                 RayHit::Wall(y, g, q) => acc.wall(sc, y, g, q, sign),
                 RayHit::Clutter(_, h) if h.front => acc.chart(h.chart, sign),
                 _ => {}

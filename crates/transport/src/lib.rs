@@ -34,6 +34,7 @@ pub mod drt_examples;
 pub mod drt_reference;
 pub mod drt_state;
 pub mod drt_vector;
+pub(crate) mod drt_walk;
 pub mod gather;
 pub mod interface;
 pub mod level;
