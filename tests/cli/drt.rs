@@ -215,6 +215,34 @@ fn drt_shards_merge_to_the_single_run_bytes() {
     // a shard does not pass as an operator set
     let f = penumbra_asset::AssetFile::open(&parts[0]).unwrap();
     assert!(f.asset().require_known(penumbra_transport::drt_asset::DRTO_SECTIONS).is_err());
+
+    // with the vector and volume operators: each shard bakes its blocks' and instances'
+    let mut vscene = scene.to_vec();
+    vscene.extend(["--vector", "--vector-rays", "32", "--volume-res", "2"]);
+    let whole = dir.path().join("vw.drto");
+    let (code, v, stderr) = drt_json(&vscene, &d, &whole);
+    assert_eq!(code, 0, "{stderr}");
+    let mut parts = Vec::new();
+    let mut rays = 0;
+    for k in 0..2 {
+        let p = dir.path().join(format!("v{k}.drto"));
+        let shard = format!("{k}/2");
+        let mut args = vscene.clone();
+        args.extend(["--shard", &shard]);
+        let (code, s, stderr) = drt_json(&args, &d, &p);
+        assert_eq!(code, 0, "{stderr}");
+        rays += s["vector"]["rays_traced"].as_u64().unwrap();
+        parts.push(p);
+    }
+    // the shards split the vector rays, none twice
+    assert_eq!(rays, v["vector"]["rays_traced"].as_u64().unwrap(), "{v}");
+    let merged = dir.path().join("vm.drto");
+    let (code, _, stderr) = run(penumbra().args(["drt", "merge"]).arg(&parts[1]).arg(&parts[0]).arg("-o").arg(&merged));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        std::fs::read(&whole).unwrap() == std::fs::read(&merged).unwrap(),
+        "merged vector bytes differ from one run"
+    );
 }
 
 /// Inpainting measured where it matters: bilinear reads at texel corners next to texels
@@ -528,12 +556,6 @@ fn vector_operators_and_dyn_probes_beat_mrt_against_the_path_tracer() {
     assert!(pv.get("vector").is_none(), "{pv}");
     let pa = penumbra_asset::AssetFile::open(&plain).unwrap();
     assert!(pa.asset().section("vec.scene.values").is_none());
-    // the vector operators are not sharded: a clear error, no output
-    let sh = dir.path().join("s.drto");
-    let (code, _, stderr) = drt_json(&["--example", "pillars", "--vector", "--shard", "0/2"], &d, &sh);
-    assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("--vector"), "{stderr}");
-    assert!(!sh.exists());
 
     let (code, stdout, stderr) = run(penumbra()
         .args(["verify", "drt", "--example", "pillars", "--clutter-res", "4", "--reference-rays", "256", "--json"])

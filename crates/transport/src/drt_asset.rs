@@ -8,7 +8,7 @@ use crate::clutter::ClutterScene;
 use crate::drt::{
     DRTO_KIND_VERSION, DeltaRecord, DrtBake, DrtMetrics, DrtParams, DrtShard, GatherOp, KcMode, Receiver, ReflectRecord,
 };
-use crate::drt_vector::{Cols, DrtVectorBake, VecRecord};
+use crate::drt_vector::{BlockProbes, Cols, DrtVectorBake, VecRecord, VectorMetrics, VectorParams};
 use penumbra_asset::{Asset, AssetBuilder, DType, Kind};
 use serde_json::{Value, json};
 
@@ -402,6 +402,72 @@ fn read_reflect(a: &Asset<'_>, p: &str, errs: &[f64]) -> Result<Vec<ReflectRecor
         .collect()
 }
 
+/// The records of a vector group `p` (`write_vec_group`) read back, values as stored.
+fn read_vec_group(a: &Asset<'_>, p: &str) -> Result<Vec<VecRecord>, TransportError> {
+    let rec = u32s(a, &format!("{p}.records"), 6)?;
+    let charts = u32s(a, &format!("{p}.charts"), 0)?;
+    let vals = floats(a, &format!("{p}.values"))?;
+    rec.chunks_exact(6)
+        .map(|r| {
+            let (dst, src, rows, ncols, off, coff) = (r[0], r[1], r[2], r[3], r[4], r[5]);
+            let cols = if src == u32::MAX as usize {
+                let c = charts
+                    .get(coff..coff + ncols)
+                    .ok_or_else(|| TransportError::Asset(format!("{p}.records: chart columns out of range")))?;
+                Cols::Charts(c.to_vec())
+            } else {
+                Cols::Block(src)
+            };
+            let op = slice(&vals, off, rows * ncols, &format!("{p}.values"))?;
+            Ok(VecRecord { dst, cols, rows, op })
+        })
+        .collect()
+}
+
+/// A shard's vector and volume operators read back (`None` without them): `receivers` are
+/// its receiving blocks in order, each with `g³` probes.
+fn read_vector(a: &Asset<'_>, meta: &Value, receivers: &[usize]) -> Result<Option<DrtVectorBake>, TransportError> {
+    let Some(vm) = meta.get("vector") else { return Ok(None) };
+    let metrics: VectorMetrics = serde_json::from_value(vm["metrics"].clone())
+        .map_err(|e| TransportError::Asset(format!("meta.vector.metrics: {e}")))?;
+    let g3 = metrics.volume_res.pow(3);
+    let pts = floats(a, "dyn.probes")?;
+    let inside = a
+        .section("dyn.inside")
+        .ok_or_else(|| TransportError::Asset("section \"dyn.inside\" is missing".into()))?
+        .as_u8()
+        .map_err(|e| TransportError::Asset(format!("section \"dyn.inside\": {e}")))?;
+    if inside.len() != receivers.len() * g3 || pts.len() != 3 * inside.len() {
+        return Err(TransportError::Asset(format!(
+            "dyn.probes: {} probes for {} receiving blocks of {g3}",
+            inside.len(),
+            receivers.len()
+        )));
+    }
+    let probes = receivers
+        .iter()
+        .enumerate()
+        .map(|(k, &block)| {
+            let r = k * g3..(k + 1) * g3;
+            BlockProbes {
+                block,
+                points: r.clone().map(|i| [pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]]).collect(),
+                inside: inside[r.clone()].iter().map(|&c| c != 0).collect(),
+                filled: inside[r].iter().map(|&c| c == 1).collect(),
+            }
+        })
+        .collect();
+    let params = VectorParams { rays: metrics.vector_rays, volume_res: metrics.volume_res };
+    Ok(Some(DrtVectorBake {
+        params,
+        scene: read_vec_group(a, "vec.scene")?,
+        clutter: read_vec_group(a, "vec.clutter")?,
+        dyn_probes: read_vec_group(a, "dyn")?,
+        probes,
+        metrics,
+    }))
+}
+
 fn f64_list(v: &Value) -> Vec<f64> {
     v.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default()
 }
@@ -585,6 +651,9 @@ pub fn merge(shards: &[Asset<'_>]) -> Result<AssetBuilder, TransportError> {
         if let Some(o) = m.as_object_mut() {
             o.remove("metrics");
         }
+        if let Some(o) = m.get_mut("vector").and_then(Value::as_object_mut) {
+            o.remove("metrics");
+        }
         m
     };
     let base = &parts[order[0]];
@@ -649,6 +718,10 @@ pub fn merge(shards: &[Asset<'_>]) -> Result<AssetBuilder, TransportError> {
     };
     let mut meta = base.meta.clone();
     meta["metrics"] = serde_json::to_value(&metrics).map_err(err)?;
+    let vector = merge_vector(shards, &parts, &order)?;
+    if let Some(v) = &vector {
+        meta["vector"]["metrics"] = serde_json::to_value(&v.metrics).map_err(err)?;
+    }
     let b = DrtBake { params: base.bake.params.clone(), shard: DrtShard::WHOLE, receivers, du_b, du_c, c_b, metrics };
     let mut a = AssetBuilder::new(Kind::DRTO);
     a.add_json("meta", &serde_json::to_string(&meta).map_err(err)?).map_err(err)?;
@@ -661,5 +734,48 @@ pub fn merge(shards: &[Asset<'_>]) -> Result<AssetBuilder, TransportError> {
         }
         Ok(())
     })?;
+    if let Some(v) = &vector {
+        vector_sections(&mut a, v, b.params.half)?;
+    }
     Ok(a)
+}
+
+/// The shards' vector and volume operators joined in a single run's order (each receiving
+/// block's and instance's records are one shard's, so a stable sort by destination keeps
+/// their order within), with the metrics summed; `None` when the bake has none.
+fn merge_vector(
+    shards: &[Asset<'_>],
+    parts: &[ShardPart],
+    order: &[usize],
+) -> Result<Option<DrtVectorBake>, TransportError> {
+    let mut all = Vec::new();
+    for &i in order {
+        let recv: Vec<usize> = parts[i].bake.receivers.iter().map(|r| r.block).collect();
+        let v = read_vector(&shards[i], &parts[i].meta, &recv).map_err(|e| {
+            TransportError::Merge(format!("shard {}/{}: {e}", parts[i].shard.index, parts[i].shard.count))
+        })?;
+        match v {
+            Some(v) => all.push(v),
+            None => return Ok(None),
+        }
+    }
+    let mut it = all.into_iter();
+    let Some(mut v) = it.next() else { return Ok(None) };
+    for w in it {
+        v.scene.extend(w.scene);
+        v.clutter.extend(w.clutter);
+        v.dyn_probes.extend(w.dyn_probes);
+        v.probes.extend(w.probes);
+        v.metrics.rays_traced += w.metrics.rays_traced;
+    }
+    v.scene.sort_by_key(|r| r.dst);
+    v.clutter.sort_by_key(|r| r.dst);
+    v.dyn_probes.sort_by_key(|r| r.dst);
+    v.probes.sort_by_key(|p| p.block);
+    let m = &mut v.metrics;
+    m.probes = v.probes.iter().map(|p| p.points.len()).sum();
+    m.probes_inside_clutter = v.probes.iter().flat_map(|p| &p.inside).filter(|&&b| b).count();
+    m.probes_inpainted = v.probes.iter().flat_map(|p| &p.filled).filter(|&&b| b).count();
+    m.values = v.scene.iter().chain(&v.clutter).chain(&v.dyn_probes).map(|r| r.op.len()).sum();
+    Ok(Some(v))
 }

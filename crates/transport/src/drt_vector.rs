@@ -366,7 +366,8 @@ pub fn probe_points(level: &Level, b: usize, g: usize) -> Vec<[f64; 3]> {
 }
 
 /// Bakes the vector and volume operators for the receiving blocks `recv` (those of the
-/// scalar bake) and every clutter instance.
+/// scalar bake) and the clutter instances `insts` (every instance in a whole bake; a
+/// shard's own in a sharded one, `crate::drt::DrtShard`).
 #[allow(clippy::too_many_arguments)]
 pub fn bake_vector(
     level: &Level,
@@ -374,6 +375,7 @@ pub fn bake_vector(
     dict: &DrtDict,
     clutter: &ClutterScene,
     recv: &[usize],
+    insts: &[usize],
     seed: u64,
     params: VectorParams,
     progress: &dyn Progress,
@@ -390,7 +392,8 @@ pub fn bake_vector(
     let kmax = dict.shapes.iter().map(|s| s.k_b).max().unwrap_or(0);
     let g = params.volume_res;
     let scene_items: usize = recv.iter().map(|&x| dict.shapes[level.blocks[x].shape].texels.len()).sum();
-    let total = (scene_items + clutter.texels.len() + recv.len() * g * g * g) as u64;
+    let clutter_items: usize = insts.iter().map(|&i| clutter.instance_texels[i][1]).sum();
+    let total = (scene_items + clutter_items + recv.len() * g * g * g) as u64;
     let done = std::sync::atomic::AtomicU64::new(0);
     let tick = |k: u64| {
         let v = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
@@ -436,7 +439,7 @@ pub fn bake_vector(
 
     // C_b⃗, C_c⃗: clutter texels, world OHLSH
     let mut cl = Vec::new();
-    for i in 0..clutter.len() {
+    for &i in insts {
         let [first, count] = clutter.instance_texels[i];
         let skip = if clutter.is_box(i) { i } else { usize::MAX };
         let items: Vec<ItemOut> = (first..first + count)
@@ -515,7 +518,7 @@ pub fn bake_vector(
         probes: n_probes,
         probes_inside_clutter: probes.iter().flat_map(|p| &p.inside).filter(|&&b| b).count(),
         probes_inpainted: probes.iter().flat_map(|p| &p.filled).filter(|&&b| b).count(),
-        rays_traced: ((scene_items + clutter.texels.len()) * params.rays + n_probes * sphere.len()) as u64,
+        rays_traced: ((scene_items + clutter_items) * params.rays + n_probes * sphere.len()) as u64,
         values: scene.iter().chain(&cl).chain(&dyn_probes).map(|r| r.op.len()).sum(),
     };
     Ok(DrtVectorBake { params, scene, clutter: cl, dyn_probes, probes, metrics })
@@ -612,7 +615,7 @@ mod tests {
         let d = dict(rho);
         let (level, links, cl) = scene();
         let vp = VectorParams { rays: 256, volume_res: 3 };
-        let v = bake_vector(&level, &links, &d, &cl, &[0], 1, vp, &NoProgress).unwrap();
+        let v = bake_vector(&level, &links, &d, &cl, &[0], &[0], 1, vp, &NoProgress).unwrap();
         assert_eq!(v.probes[0].points.len(), 27);
         let col = |c: &Cols, k: usize| match c {
             Cols::Block(_) => f64::from(u8::from(k == 0)),
@@ -666,8 +669,8 @@ mod tests {
             volume_res: None,
         };
         let s = bake(&level, &links, &d, &cl, &params, &NoProgress).unwrap();
-        let v =
-            bake_vector(&level, &links, &d, &cl, &[0], 9, VectorParams { rays, volume_res: 2 }, &NoProgress).unwrap();
+        let v = bake_vector(&level, &links, &d, &cl, &[0], &[0], 9, VectorParams { rays, volume_res: 2 }, &NoProgress)
+            .unwrap();
         let pi = core::f64::consts::PI;
         let n = d.shapes[0].texels.len();
         let du = s.du_b.iter().find(|r| r.dst == 0 && r.src == 0).unwrap();

@@ -582,8 +582,8 @@ fn previous_bake(sc: &DrtScene, st: &DrtState, output: &Path) -> Result<penumbra
     penumbra_transport::drt_asset::read_bake(&asset.asset(), &k_b).map_err(|e| format!("{}: {e}", output.display()))
 }
 
-/// The vector and volume operators (§5.4.3) of a whole bake's receiving blocks, when
-/// `params.vector_rays` asks for them.
+/// The vector and volume operators (§5.4.3) of a bake's receiving blocks and instances (a
+/// shard's own in a sharded bake), when `params.vector_rays` asks for them.
 fn vector_of(
     sc: &DrtScene,
     params: &DrtParams,
@@ -592,9 +592,11 @@ fn vector_of(
 ) -> Result<Option<DrtVectorBake>, CliError> {
     let Some(rays) = params.vector_rays else { return Ok(None) };
     let rep = Reporter::new("drt vector", mode);
+    // a shard's receiving blocks and instances: `drt merge` joins the shards' records
     let recv: Vec<usize> = b.receivers.iter().map(|r| r.block).collect();
+    let insts: Vec<usize> = (0..sc.clutter.len()).filter(|&i| b.shard.owns(i)).collect();
     let vp = VectorParams { rays, volume_res: params.volume_res.unwrap_or(sc.dict.volume_res) };
-    let v = bake_vector(&sc.level, &sc.links, &sc.dict, &sc.clutter, &recv, params.seed, vp, &rep)
+    let v = bake_vector(&sc.level, &sc.links, &sc.dict, &sc.clutter, &recv, &insts, params.seed, vp, &rep)
         .map_err(|e| CliError::input(anyhow!("{e}")))?;
     rep.finish();
     Ok(Some(v))
@@ -620,18 +622,13 @@ pub fn bake_scene(
     bake_scene_shard(sc, params, DrtShard::WHOLE, mode)
 }
 
-/// [`bake_scene`] for one shard (the vector operators need a whole bake).
+/// [`bake_scene`] for one shard (its receiving blocks and instances, vector operators too).
 pub fn bake_scene_shard(
     sc: &DrtScene,
     params: &DrtParams,
     shard: DrtShard,
     mode: ProgressMode,
 ) -> Result<(penumbra_transport::drt::DrtBake, Vec<u8>, Option<VectorMetrics>), CliError> {
-    if shard.count > 1 && params.vector_rays.is_some() {
-        return Err(CliError::input(anyhow!(
-            "--vector needs a whole bake: the vector and volume operators are not sharded (drop --shard or --vector)"
-        )));
-    }
     let rep = Reporter::new("drt", mode);
     let b = bake_shard(&sc.level, &sc.links, &sc.dict, &sc.clutter, params, shard, &rep)
         .map_err(|e| CliError::input(anyhow!("{e}")))?;
