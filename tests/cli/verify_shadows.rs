@@ -66,6 +66,10 @@ fn verify_reports_every_error_with_honest_values() {
     assert!(v["nrmse_spheres_vs_mesh"].as_f64().unwrap() < 0.15, "{v}");
     let png = std::fs::read(&img).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // three panels of at least 512 px, a colour bar and a caption
+    let (w, h) =
+        (u32::from_be_bytes(png[16..20].try_into().unwrap()), u32::from_be_bytes(png[20..24].try_into().unwrap()));
+    assert!(w >= 3 * 512 && h > 512 + 4 * 22, "{w} x {h}");
     // the hierarchy path gives nearly the same answer with fewer blockers
     let (code, h, err) = verify(dir.path(), &t, &s, &["--hierarchy", "--cluster", "4"]);
     assert_eq!(code, 0, "{err}");

@@ -466,7 +466,8 @@ pub struct VerifyFivArgs {
     /// Disable the multi-occluder overlap correction (eq. 13–14).
     #[arg(long)]
     pub no_overlap: bool,
-    /// Write runtime | reference | difference as a PNG.
+    /// Write a PNG: runtime | reference | difference, each panel at least 512 px and titled,
+    /// a colour bar for the difference in irradiance units, and the key figures in a caption.
     #[arg(long, value_name = "OUT.png")]
     pub image: Option<PathBuf>,
     /// Exit with code 1 when nrmse (all receivers) exceeds this.

@@ -9,6 +9,7 @@ pub mod args;
 pub mod commands;
 pub mod env_light;
 pub mod exit;
+pub mod figure;
 pub mod fsutil;
 pub mod png;
 pub mod progress;

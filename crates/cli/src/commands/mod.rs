@@ -4,6 +4,7 @@ pub mod bake;
 pub mod bake_cache;
 pub mod drt;
 pub mod fiv;
+pub mod floor_view;
 pub mod gate;
 pub mod inspect;
 pub mod mrt;

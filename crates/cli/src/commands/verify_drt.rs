@@ -59,7 +59,8 @@ pub struct VerifyDrtArgs {
     /// Seed of the reference.
     #[arg(long = "ref-seed", default_value_t = 0)]
     pub ref_seed: u64,
-    /// Top view of the floors' one-bounce indirect light: MRT | MRT + DRT | reference (PNG).
+    /// Top view of the floors' one-bounce indirect light: MRT | MRT + DRT | reference |
+    /// difference (PNG; panels at least 512 px, titled, a colour bar and a caption).
     #[arg(long, value_name = "OUT.png")]
     pub image: Option<PathBuf>,
     /// Exit with code 1 when rel_error_mrt_drt exceeds this.
@@ -439,7 +440,22 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
         &[crate::commands::gate::Gate { key: "max_rel_error", metric: "rel_error_mrt_drt", max: a.max_rel_error }],
     );
     if let Some(p) = &a.image {
-        let png = top_view(&tex, &[&mrt_one, &s_drt, r1], &keep, sc.ops.face_res);
+        let caption = vec![format!(
+            "relative error: MRT alone {:.4}, MRT + DRT {:.4}; blocks: {}, reference rays per texel: {}",
+            v["rel_error_mrt"].as_f64().unwrap_or(f64::NAN),
+            v["rel_error_mrt_drt"].as_f64().unwrap_or(f64::NAN),
+            v["blocks"],
+            a.reference_rays
+        )];
+        let fig = crate::commands::floor_view::floor_figure(
+            &tex,
+            &[("MRT alone", &mrt_one), ("MRT + DRT", &s_drt), ("reference (path traced)", r1)],
+            Some(&keep),
+            (1, 2),
+            0.2,
+            caption,
+        );
+        let png = crate::figure::render(&fig);
         ensure_parent(p)?;
         penumbra_asset::write_file_atomic(p, &png).with_context(|| format!("cannot write {}", p.display()))?;
     }
@@ -537,67 +553,4 @@ fn boundary_points(
         }
     }
     out
-}
-
-/// Top view of the floors, one panel per series (same tone scale), texels inside clutter
-/// drawn dark red.
-fn top_view(
-    tex: &penumbra_transport::level_reference::LevelTexels,
-    series: &[&[f64]],
-    keep: &[bool],
-    r: usize,
-) -> Vec<u8> {
-    let floor: Vec<usize> = (0..tex.texels.len()).filter(|&i| tex.texels[i].1 == 2).collect();
-    let (mut x0, mut x1, mut z0, mut z1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for &i in &floor {
-        let p = tex.texels[i].2;
-        x0 = x0.min(p[0]);
-        x1 = x1.max(p[0]);
-        z0 = z0.min(p[2]);
-        z1 = z1.max(p[2]);
-    }
-    // texel pitch in world units (blocks may be scaled uniformly)
-    let pitch = floor
-        .iter()
-        .filter_map(|&i| {
-            let p = tex.texels[i].2;
-            floor.iter().map(|&j| (tex.texels[j].2[0] - p[0]).abs()).filter(|&d| d > 1e-9).reduce(f64::min)
-        })
-        .fold(f64::MAX, f64::min)
-        .min(1.0 / r as f64);
-    let s = 1.0 / pitch.max(1e-9);
-    let up = (512 / (((x1 - x0) * s).round() as usize + 1)).clamp(2, 16);
-    let w = (((x1 - x0) * s).round() as usize + 1) * up;
-    let h = (((z1 - z0) * s).round() as usize + 1) * up;
-    let gap = 8;
-    let width = series.len() * w + (series.len() - 1) * gap;
-    let peak = floor
-        .iter()
-        .filter(|&&i| keep[i])
-        .map(|&i| series.iter().map(|v| v[i]).fold(0.0f64, f64::max))
-        .fold(0.0f64, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let mut img = vec![32u8; width * h * 3];
-    for &i in &floor {
-        let p = tex.texels[i].2;
-        let (px, pz) = (((p[0] - x0) * s).round() as usize, ((p[2] - z0) * s).round() as usize);
-        for (k, v) in series.iter().enumerate() {
-            let side = k * (w + gap);
-            let rgb = if keep[i] {
-                let g = ((v[i].max(0.0) / peak).powf(1.0 / 2.2) * 255.0).round().clamp(0.0, 255.0) as u8;
-                [g, g, (f64::from(g) * 0.9) as u8]
-            } else {
-                [90, 20, 20]
-            };
-            for dz in 0..up {
-                for dx in 0..up {
-                    let o = ((pz * up + dz) * width + side + px * up + dx) * 3;
-                    if o + 3 <= img.len() {
-                        img[o..o + 3].copy_from_slice(&rgb);
-                    }
-                }
-            }
-        }
-    }
-    crate::png::encode_rgb8(width as u32, h as u32, &img)
 }

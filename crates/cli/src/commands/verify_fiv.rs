@@ -240,26 +240,38 @@ fn tone(v: f64) -> u8 {
     (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8
 }
 
-/// runtime | reference | difference (|Δ| × 8 / (max − min of the reference)), 4-pixel gaps.
-fn write_image(path: &Path, n: usize, rt: &[[f64; 3]], rf: &[[f64; 3]], range: (f64, f64)) -> Result<(), CliError> {
-    let gap = 4;
-    let w = 3 * n + 2 * gap;
-    let mut px = vec![40u8; w * n * 3];
+/// runtime | reference | |runtime − reference| (grey, full white at ⅛ of the reference's
+/// range, with its colour bar), the receiver grid's rows as they come, `caption` below.
+fn write_image(
+    path: &Path,
+    n: usize,
+    rt: &[[f64; 3]],
+    rf: &[[f64; 3]],
+    range: (f64, f64),
+    caption: Vec<String>,
+) -> Result<(), CliError> {
+    use crate::figure::{ColorBar, Figure, Panel, gray};
     let scale = if range.1 > 0.0 { 1.0 / range.1 } else { 1.0 };
-    let span = (range.1 - range.0).max(f64::MIN_POSITIVE);
-    for j in 0..n {
-        for i in 0..n {
-            let r = j * n + i;
-            for c in 0..3 {
-                px[(j * w + i) * 3 + c] = tone(rt[r][c] * scale);
-                px[(j * w + n + gap + i) * 3 + c] = tone(rf[r][c] * scale);
-                px[(j * w + 2 * (n + gap) + i) * 3 + c] =
-                    ((rt[r][c] - rf[r][c]).abs() * 8.0 / span).clamp(0.0, 1.0).mul_add(255.0, 0.0).round() as u8;
-            }
-        }
-    }
+    let span = (range.1 - range.0).max(f64::MIN_POSITIVE) / 8.0;
+    let fig = Figure {
+        panels: vec![
+            Panel::from_fn("runtime (FIV lookup)", n, n, |i, j| rt[j * n + i].map(|v| tone(v * scale))),
+            Panel::from_fn("reference (ray traced)", n, n, |i, j| rf[j * n + i].map(|v| tone(v * scale))),
+            Panel::from_fn("|runtime - reference|", n, n, |i, j| {
+                let r = j * n + i;
+                core::array::from_fn(|c| gray((rt[r][c] - rf[r][c]).abs() / span)[0])
+            }),
+        ],
+        colorbar: Some(ColorBar {
+            label: "|runtime - reference| per channel, irradiance (white: 1/8 of the reference's range)".into(),
+            lo: 0.0,
+            hi: span,
+            map: gray,
+        }),
+        caption,
+    };
     ensure_parent(path)?;
-    write_file_atomic(path, &crate::png::encode_rgb8(w as u32, n as u32, &px))
+    write_file_atomic(path, &crate::figure::render(&fig))
         .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }
@@ -532,7 +544,14 @@ pub(crate) fn run_report(a: &VerifyFivArgs) -> Result<(ExitCode, Value), CliErro
         }
     }
     if let (Some(img), Some(n)) = (&a.image, recv.grid) {
-        write_image(img, n, &rt, &rf, (lo, hi))?;
+        let caption = vec![
+            format!(
+                "NRMSE {e_all:.4} (visible receivers {e_vis:.4}), {n_all} receivers ({n}x{n} grid), {} occluder(s), cube size {cube_size}",
+                occs.len()
+            ),
+            format!("tone: gamma 2.2 of irradiance / the reference's peak {hi:.4}"),
+        ];
+        write_image(img, n, &rt, &rf, (lo, hi), caption)?;
     }
     let mut v: Value = json!({
         "nrmse": e_all,

@@ -52,7 +52,8 @@ pub struct VerifyMrtArgs {
     /// Seed of the reference.
     #[arg(long = "ref-seed", default_value_t = 0)]
     pub ref_seed: u64,
-    /// Top view of the floor's one-bounce indirect light, MRT | reference (PNG).
+    /// Top view of the floor's one-bounce indirect light: MRT | reference | difference (PNG;
+    /// panels at least 512 px, titled, a colour bar and a caption).
     #[arg(long)]
     pub image: Option<PathBuf>,
     /// Exit with code 1 when rel_error_one_bounce exceeds this (a quality gate for CI).
@@ -354,7 +355,21 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         ],
     );
     if let Some(p) = &a.image {
-        let png = top_view(&tex, &one, &r.one_bounce, d.face_res);
+        let caption = vec![format!(
+            "one-bounce relative error {:.4}; blocks: {}, reference rays per texel: {}",
+            v["rel_error_one_bounce"].as_f64().unwrap_or(f64::NAN),
+            level.blocks.len(),
+            a.rays
+        )];
+        let fig = crate::commands::floor_view::floor_figure(
+            &tex,
+            &[("MRT (one bounce)", &one), ("reference (path traced)", &r.one_bounce)],
+            None,
+            (0, 1),
+            0.2,
+            caption,
+        );
+        let png = crate::figure::render(&fig);
         ensure_parent(p)?;
         penumbra_asset::write_file_atomic(p, &png).with_context(|| format!("cannot write {}", p.display()))?;
     }
@@ -406,46 +421,4 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         );
     }
     Ok((crate::commands::gate::finish(&failures), v))
-}
-
-/// Top view of the floors (face −y, seen from above: +x right, +z down), `4·face_res`
-/// pixels per block edge (each texel a 4×4 square): MRT on the left, the reference on the
-/// right, one tone scale (gamma 2.2 of value / peak).
-fn top_view(
-    tex: &penumbra_transport::level_reference::LevelTexels,
-    mrt: &[f64],
-    reference: &[f64],
-    r: usize,
-) -> Vec<u8> {
-    let floor: Vec<usize> = (0..tex.texels.len()).filter(|&i| tex.texels[i].1 == 2).collect();
-    let (mut x0, mut x1, mut z0, mut z1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for &i in &floor {
-        let p = tex.texels[i].2;
-        x0 = x0.min(p[0]);
-        x1 = x1.max(p[0]);
-        z0 = z0.min(p[2]);
-        z1 = z1.max(p[2]);
-    }
-    let s = r as f64;
-    let up = 4;
-    let w = (((x1 - x0) * s).round() as usize + 1) * up;
-    let h = (((z1 - z0) * s).round() as usize + 1) * up;
-    let gap = 8;
-    let width = 2 * w + gap;
-    let peak = floor.iter().map(|&i| reference[i].max(mrt[i])).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
-    let mut img = vec![32u8; width * h * 3];
-    for &i in &floor {
-        let p = tex.texels[i].2;
-        let (px, pz) = (((p[0] - x0) * s).round() as usize, ((p[2] - z0) * s).round() as usize);
-        for (side, v) in [(0usize, mrt[i]), (w + gap, reference[i])] {
-            let g = ((v.max(0.0) / peak).powf(1.0 / 2.2) * 255.0).round().clamp(0.0, 255.0) as u8;
-            for dz in 0..up {
-                for dx in 0..up {
-                    let o = ((pz * up + dz) * width + side + px * up + dx) * 3;
-                    img[o..o + 3].copy_from_slice(&[g, g, (f64::from(g) * 0.9) as u8]);
-                }
-            }
-        }
-    }
-    crate::png::encode_rgb8(width as u32, h as u32, &img)
 }

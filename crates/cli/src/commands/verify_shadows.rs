@@ -130,7 +130,8 @@ pub struct VerifyShadowsArgs {
     /// Seed of the reference's stratified jitter.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Write a PNG (plane receivers): runtime | mesh truth | difference, seen from above.
+    /// Write a PNG (plane receivers): runtime | mesh truth | difference, seen from above, each
+    /// panel at least 512 px and titled, a colour bar for the difference and a caption.
     #[arg(long, value_name = "FILE")]
     pub image: Option<PathBuf>,
     /// Quality gate: exit 1 when `nrmse_vs_mesh` exceeds it (the report is still printed).
@@ -826,40 +827,47 @@ fn shadow_depth(v: &[[f64; 3]]) -> f64 {
     if hi > 0.0 { (hi - lo) / hi } else { f64::NAN }
 }
 
-/// Runtime | mesh truth | difference (false colour, ±10 % of the truth's range) for plane
-/// receivers, top view.
-pub fn write_image(path: &Path, res: usize, runtime: &[[f64; 3]], truth: &[[f64; 3]]) -> Result<(), CliError> {
+/// Runtime | mesh truth | difference (false colour, ±10 % of the truth's luminance range,
+/// with its colour bar) for plane receivers, top view (far side up), with `caption` below.
+pub fn write_image(
+    path: &Path,
+    res: usize,
+    runtime: &[[f64; 3]],
+    truth: &[[f64; 3]],
+    caption: Vec<String>,
+) -> Result<(), CliError> {
+    use crate::figure::{ColorBar, Figure, Panel, diverging};
     let lum = |c: &[f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
     let max = truth.iter().map(lum).fold(f64::MIN_POSITIVE, f64::max);
     let min = truth.iter().map(lum).fold(f64::INFINITY, f64::min);
     let range = (max - min).max(f64::MIN_POSITIVE);
-    let w = 3 * res + 2 * 4;
-    let mut rgb = vec![255u8; w * res * 3];
-    let tone = |v: f64| ((v / max).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
-    for j in 0..res {
-        for i in 0..res {
-            let k = j * res + i;
-            let row = res - 1 - j; // far side up
-            let put = |rgb: &mut Vec<u8>, x: usize, c: [u8; 3]| {
-                let o = (row * w + x) * 3;
-                rgb[o..o + 3].copy_from_slice(&c);
-            };
-            let a = tone(lum(&runtime[k]));
-            let b = tone(lum(&truth[k]));
-            put(&mut rgb, i, [a, a, a]);
-            put(&mut rgb, res + 4 + i, [b, b, b]);
-            let d = ((lum(&runtime[k]) - lum(&truth[k])) / range / 0.1).clamp(-1.0, 1.0);
-            let c = if d >= 0.0 {
-                [255, (255.0 * (1.0 - d)) as u8, (255.0 * (1.0 - d)) as u8]
-            } else {
-                [(255.0 * (1.0 + d)) as u8, (255.0 * (1.0 + d)) as u8, 255]
-            };
-            put(&mut rgb, 2 * (res + 4) + i, c);
-        }
-    }
+    let tone = |v: f64| {
+        let g = ((v / max).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+        [g, g, g]
+    };
+    // receiver k = j·res + i; image row 0 is the far side (j = res − 1)
+    let at = |i: usize, row: usize| (res - 1 - row) * res + i;
+    let span = 0.1 * range;
+    let fig = Figure {
+        panels: vec![
+            Panel::from_fn("runtime (sphere proxies)", res, res, |i, r| tone(lum(&runtime[at(i, r)]))),
+            Panel::from_fn("reference (mesh ray traced)", res, res, |i, r| tone(lum(&truth[at(i, r)]))),
+            Panel::from_fn("difference", res, res, |i, r| {
+                let k = at(i, r);
+                diverging(0.5 + 0.5 * (lum(&runtime[k]) - lum(&truth[k])) / span)
+            }),
+        ],
+        colorbar: Some(ColorBar {
+            label: "runtime - reference, luminance of irradiance (clamped at 10% of the reference's range)".into(),
+            lo: -span,
+            hi: span,
+            map: diverging,
+        }),
+        caption,
+    };
     ensure_parent(path)?;
-    let png = crate::png::encode_rgb8(w as u32, res as u32, &rgb);
-    penumbra_asset::write_file_atomic(path, &png).with_context(|| format!("cannot write {}", path.display()))?;
+    penumbra_asset::write_file_atomic(path, &crate::figure::render(&fig))
+        .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }
 
@@ -877,7 +885,25 @@ pub(crate) fn run_report(a: &VerifyShadowsArgs) -> Result<(ExitCode, Value), Cli
         if a.receivers != ReceiverKind::Plane {
             return Err(CliError::input(anyhow!("--image needs --receivers plane")));
         }
-        write_image(img, a.resolution as usize, &r.runtime, &r.mesh_truth)?;
+        let j = &r.json;
+        let caption = vec![
+            format!(
+                "NRMSE vs mesh {:.4}, {} receivers ({}x{} plane), {} spheres, order {}, {}{}",
+                j["nrmse_vs_mesh"].as_f64().unwrap_or(f64::NAN),
+                j["receivers"],
+                a.resolution,
+                a.resolution,
+                j["sphere_count"],
+                j["order"],
+                j["exp_method"].as_str().unwrap_or(""),
+                if a.hierarchy { ", hierarchy" } else { "" }
+            ),
+            format!("top view, far side up; tone: gamma 2.2 of luminance / the reference's peak {:.4}", {
+                let lum = |c: &[f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+                r.mesh_truth.iter().map(lum).fold(0.0f64, f64::max)
+            }),
+        ];
+        write_image(img, a.resolution as usize, &r.runtime, &r.mesh_truth, caption)?;
     }
     let mut v = r.json;
     if let Some(o) = v.as_object_mut() {

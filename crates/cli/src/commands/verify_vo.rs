@@ -70,7 +70,8 @@ pub struct VerifyVoArgs {
     /// Seed of the truths' Monte Carlo (and of the baked set without --sets).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Write the estimate over the whole buffer as a grey PNG.
+    /// Write the estimate over the whole buffer as a grey PNG (at least 512 px, titled, with a
+    /// colour bar and a caption).
     #[arg(long)]
     pub image: Option<PathBuf>,
     /// Quality gate: exit 1 when `rmse_vs_volume` (the estimator against the obscurance
@@ -175,20 +176,26 @@ pub(crate) fn run_report(a: &VerifyVoArgs) -> Result<(ExitCode, serde_json::Valu
     let params = VerifyParams { options, pixels: a.pixels as usize, mc_samples: a.mc as usize, seed: a.seed };
     let r = verify(&db, &frame, &wn, method, set, &reflections, &params);
     if let Some(img) = &a.image {
+        use crate::figure::{ColorBar, Figure, Panel, gray};
         let s = (reflections.len() as f64).sqrt() as usize;
-        let mut px = vec![0u8; db.width * db.height * 3];
-        for j in 0..db.height {
-            for i in 0..db.width {
-                if let Some(v) = estimate(&db, i, j, method, set, reflections[(j % s) * s + i % s], &options) {
-                    let g = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-                    // image rows top-down: +y up
-                    let k = ((db.height - 1 - j) * db.width + i) * 3;
-                    px[k..k + 3].copy_from_slice(&[g, g, g]);
-                }
-            }
-        }
+        // image rows top-down: +y up; pixels the estimate does not cover stay black
+        let panel = Panel::from_fn(format!("{} estimate", a.method), db.width, db.height, |i, row| {
+            let j = db.height - 1 - row;
+            estimate(&db, i, j, method, set, reflections[(j % s) * s + i % s], &options).map_or([0, 0, 0], gray)
+        });
+        let fig = Figure {
+            panels: vec![panel],
+            colorbar: Some(ColorBar { label: "occlusion estimate (unitless)".into(), lo: 0.0, hi: 1.0, map: gray }),
+            caption: vec![format!(
+                "{}x{} pixels, radius {:.4} (world units), {} reflection vectors",
+                db.width,
+                db.height,
+                options.radius,
+                reflections.len()
+            )],
+        };
         ensure_parent(img)?;
-        penumbra_asset::write_file_atomic(img, &crate::png::encode_rgb8(db.width as u32, db.height as u32, &px))
+        penumbra_asset::write_file_atomic(img, &crate::figure::render(&fig))
             .with_context(|| format!("cannot write {}", img.display()))?;
     }
     let mut v = serde_json::to_value(r).map_err(CliError::internal)?;
