@@ -154,6 +154,61 @@ impl ShBasis {
         }
     }
 
+    /// [`ShBasis::rotate_zonal`] for a compile-time order `N` (`N2 = N²`) on `L` axes at once,
+    /// structure of arrays (`axis[a][lane]`, `out[lm][lane]`): `y_lm(axis)` by the same
+    /// recurrences as [`ShBasis::eval`], then times `zh_star[l]`, so each lane equals the
+    /// scalar result bit for bit.
+    #[inline(always)]
+    pub(crate) fn rotate_zonal_lanes<const N: usize, const N2: usize, const L: usize>(
+        &self,
+        zh_star: &[f32; N],
+        axis: &[[f32; L]; 3],
+        out: &mut [[f32; L]; N2],
+    ) {
+        let [x, y, z] = axis;
+        let mut c = [1.0f32; L];
+        let mut s = [0.0f32; L];
+        let mut q_mm = 1.0f32;
+        for m in 0..N {
+            if m > 0 {
+                for lane in 0..L {
+                    let (c2, s2) = (c[lane] * x[lane] - s[lane] * y[lane], c[lane] * y[lane] + s[lane] * x[lane]);
+                    c[lane] = c2;
+                    s[lane] = s2;
+                }
+                q_mm *= -((2 * m - 1) as f32);
+            }
+            let mut q_prev = [0.0f32; L];
+            let mut q = [q_mm; L];
+            for l in m..N {
+                if l == m + 1 {
+                    q_prev = q;
+                    for lane in 0..L {
+                        q[lane] = z[lane] * (2 * m + 1) as f32 * q_mm;
+                    }
+                } else if l > m + 1 {
+                    let (ra, rb) = (self.ra[l * MAX_ORDER + m], self.rb[l * MAX_ORDER + m]);
+                    for lane in 0..L {
+                        let next = ra * z[lane] * q[lane] - rb * q_prev[lane];
+                        q_prev[lane] = q[lane];
+                        q[lane] = next;
+                    }
+                }
+                let (k, zl) = (self.k[l * MAX_ORDER + m], zh_star[l]);
+                let base = l * (l + 1);
+                for lane in 0..L {
+                    let kq = k * q[lane];
+                    if m == 0 {
+                        out[base][lane] = kq * zl;
+                    } else {
+                        out[base + m][lane] = kq * c[lane] * zl;
+                        out[base - m][lane] = kq * s[lane] * zl;
+                    }
+                }
+            }
+        }
+    }
+
     /// Calls `sink(index, band, y)` for every basis function at `dir`.
     #[inline(always)]
     fn visit(&self, dir: [f32; 3], mut sink: impl FnMut(usize, usize, f32)) {

@@ -556,21 +556,35 @@ impl<'a> ShTables<'a> {
 
     /// [`ShTables::square`] on `L` receivers at once, structure of arrays (`g[i][lane]`):
     /// the same terms in the same order per lane, so each lane equals the scalar result.
+    ///
+    /// The output row being summed is held in a local accumulator while consecutive terms
+    /// share it (the bake lists the tensor's terms sorted by output index), instead of a load and
+    /// a store of `out[i]` per term — the same additions in the same order.
     #[inline(always)]
     pub(crate) fn square_lanes<const N2: usize, const L: usize>(&self, g: &[[f32; L]; N2], out: &mut [[f32; L]; N2]) {
         *out = [[0.0; L]; N2];
+        let Some(&(first, ..)) = self.gamma_square.first() else { return };
+        let mut cur = first as usize;
+        let mut acc = out[cur];
         for &(i, j, k, v) in &self.gamma_square {
+            let i = i as usize;
+            if i != cur {
+                out[cur] = acc;
+                cur = i;
+                acc = out[cur];
+            }
             let (gj, gk) = (g[j as usize], g[k as usize]);
-            let o = &mut out[i as usize];
             for lane in 0..L {
-                o[lane] += v * gj[lane] * gk[lane];
+                acc[lane] += v * gj[lane] * gk[lane];
             }
         }
+        out[cur] = acc;
     }
 
     /// [`ShTables::exp_hyb`] on `L` receivers at once (`f[i][lane]`, `order² = N2`). Lanes
     /// that need fewer squarings than the batch's maximum keep their value; every lane
     /// equals the scalar result exactly (same operations in the same order; tested).
+    #[inline(always)]
     pub(crate) fn exp_hyb_lanes<const N2: usize, const L: usize>(&self, f: &[[f32; L]; N2], out: &mut [[f32; L]; N2]) {
         let sqrt_4pi = (4.0 * core::f32::consts::PI).sqrt();
         let mut steps = [0i32; L];

@@ -18,6 +18,7 @@ impl ShadowEvaluator<'_> {
 
     /// [`ShadowEvaluator::exponentiate`] on every lane: HYB batched (all lanes squared as
     /// often as the neediest; the others keep their value), OL and PS*-p lane by lane.
+    #[inline(always)]
     pub(crate) fn exponentiate_lanes<const M: usize>(&self, f: &[[f32; LANES]; M], g: &mut [[f32; LANES]; M]) {
         if self.options.exp == RuntimeExp::Hyb {
             self.tables.exp_hyb_lanes::<M, LANES>(f, g);

@@ -3,6 +3,7 @@
 //! `H(N)` rotated to the normal by the zonal rule; lighting and visibility windowed by the
 //! tables' cosine window (`α_l = cos(π l / 2h)`, `h = 2n`) when enabled.
 
+use super::batch::LANES;
 use super::{N2, SQRT_4PI, ShadowEvaluator, band};
 
 impl ShadowEvaluator<'_> {
@@ -30,6 +31,51 @@ impl ShadowEvaluator<'_> {
                     acc += row[k] * gw[k];
                 }
                 s += h[i] * acc;
+            }
+            out[c] = s;
+        }
+        out
+    }
+
+    /// [`ShadowEvaluator::shade`] on every lane of a receiver batch (compile-time order `N`,
+    /// `N2 = N²`, the evaluator's): the same operations in the same order per lane, so each
+    /// lane equals the scalar result bit for bit. A row the scalar path skips for a lane
+    /// (`H_i = 0` there) is computed for the batch when some other lane needs it, and the
+    /// lane keeps its sum unchanged (a select, not an added zero: `0·∞` would be NaN).
+    #[inline(always)]
+    pub(crate) fn shade_lanes<const N: usize, const N2: usize>(
+        &self,
+        n: &[[f32; LANES]; 3],
+        g: &[[f32; LANES]; N2],
+    ) -> [[f32; LANES]; 3] {
+        let zh: &[f32; N] = self.cosine_star[..N].try_into().expect("order N");
+        let mut h = [[0.0f32; LANES]; N2];
+        self.tables.basis().rotate_zonal_lanes::<N, N2, LANES>(zh, n, &mut h);
+        let mut gw = [[0.0f32; LANES]; N2];
+        for i in 0..N2 {
+            let w = self.window[band(i)];
+            for lane in 0..LANES {
+                gw[i][lane] = g[i][lane] * w;
+            }
+        }
+        let mut out = [[0.0f32; LANES]; 3];
+        for (c, m) in self.light_matrix.iter().enumerate() {
+            let mut s = [0.0f32; LANES];
+            for i in 0..N2 {
+                let used = h[i].map(|v| v != 0.0);
+                if !used.iter().any(|&u| u) {
+                    continue;
+                }
+                let row: &[f32; N2] = m[i * N2..(i + 1) * N2].try_into().expect("n² × n² light matrix");
+                let mut acc = [0.0f32; LANES];
+                for k in 0..N2 {
+                    for lane in 0..LANES {
+                        acc[lane] += row[k] * gw[k][lane];
+                    }
+                }
+                for lane in 0..LANES {
+                    s[lane] = if used[lane] { s[lane] + h[i][lane] * acc[lane] } else { s[lane] };
+                }
             }
             out[c] = s;
         }
