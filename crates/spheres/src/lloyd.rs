@@ -532,19 +532,13 @@ fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<
             cands.clear();
             // (a tolerance far above rounding noise, far below any real volume difference)
             cands.extend((0..n).filter(|&i| lb[i] <= min_ub + CANDIDATE_SLACK));
-            for &e in samples.cell(cell) {
+            for (&e, pts) in samples.cell(cell).iter().zip(samples.cell_points(cell)) {
                 let e = e as usize;
                 if assign[e] != u32::MAX {
                     continue;
                 }
-                // the element's points, loaded once for all candidates (same values as
-                // `elem_dist`, same order of operations)
-                let ids = samples.elements[e].point_ids();
-                let mut pts = [[0.0f64; 3]; 3];
-                for (k, &p) in ids.iter().enumerate() {
-                    pts[k] = samples.points[p as usize];
-                }
-                let pts = &pts[..ids.len()];
+                // the element's points, stored by cell (the same maximum as `elem_dist`: an
+                // interior point is repeated, and max is idempotent)
                 let mut best = (f64::INFINITY, f64::INFINITY, 0usize);
                 for &i in &cands {
                     let c = centers[i];

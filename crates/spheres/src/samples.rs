@@ -77,6 +77,10 @@ pub struct Samples {
     cell_boxes: Vec<[[f64; 3]; 2]>,
     /// Element representatives, contiguous (the clustering's nearest-element scans).
     reps: Vec<[f64; 3]>,
+    /// The points of every element in `cell_elements` order (an interior element's one point
+    /// three times): the clustering visits elements cell by cell, and loading them from here
+    /// is sequential in memory instead of a jump into `elements` and `points` per element.
+    cell_points: Vec<[[f64; 3]; 3]>,
 }
 
 impl Samples {
@@ -226,6 +230,14 @@ impl Samples {
             })
             .collect();
         let reps = elements.iter().map(|e| e.rep).collect();
+        let cell_points = cell_elements
+            .iter()
+            .map(|&e| {
+                let el = &elements[e as usize];
+                let ids = el.point_ids();
+                std::array::from_fn(|k| points[ids[k.min(ids.len() - 1)] as usize])
+            })
+            .collect();
         Self {
             points,
             input_points,
@@ -244,6 +256,7 @@ impl Samples {
             cells,
             cell_boxes,
             reps,
+            cell_points,
         }
     }
 
@@ -271,6 +284,14 @@ impl Samples {
     #[inline]
     pub fn cell_box(&self, c: usize) -> [[f64; 3]; 2] {
         self.cell_boxes[c]
+    }
+
+    /// The points of the elements in cell `c`, in the order of [`Samples::cell`]; each
+    /// element's points padded to three by repeating its last (so a maximum over the three
+    /// equals the maximum over the element's own points).
+    #[inline]
+    pub fn cell_points(&self, c: usize) -> &[[[f64; 3]; 3]] {
+        &self.cell_points[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
     }
 
     /// The representative point of every element, in element order.
