@@ -471,7 +471,10 @@ impl SignedDistanceGrid {
         {
             return 0.0;
         }
-        let (i, j, k) = (u[0] as usize, u[1] as usize, u[2] as usize);
+        // 0 ≤ u < cells (checked above, and the cell counts fit in u32): truncating through u32
+        // is the same index as through usize, with one conversion instruction instead of the
+        // sign fix-up a float → usize conversion needs (this is the volume model's inner loop)
+        let (i, j, k) = (u[0] as u32 as usize, u[1] as u32 as usize, u[2] as u32 as usize);
         match self.ramp_kind[i + c[0] * (j + c[1] * k)] {
             0 => 0.0,
             1 => 1.0,

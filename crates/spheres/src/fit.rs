@@ -382,50 +382,73 @@ fn fit_count(
             ls.iterations = p.iterations;
             ls.seed = p.seed;
             ls.seeding = p.seeding;
-            let o = lloyd::fit(&ctx.samples, model, volume_model, &ls, progress);
-            let (spheres, assign) = if p.refine {
-                let (mut s, mut a, _) = crate::refine::refine_to_count(&ctx.samples, model, &o.spheres, &o.assign, n);
-                if s.len() < n {
-                    // The refinement could not spend every sphere again: refit from its spheres
-                    // plus new medial seeds where the set is sparsest, refine that, and keep
-                    // whichever set has less outside volume in its union (by the model).
-                    let kept: Vec<[f64; 3]> = s.iter().map(|x| x.center).collect();
-                    if let Some(c) = lloyd::more_medial_centers(&ctx.samples, &kept, n) {
-                        let o2 = lloyd::fit_from(&ctx.samples, model, volume_model, &ls, &c, progress);
-                        let (s2, a2, _) =
-                            crate::refine::refine_to_count(&ctx.samples, model, &o2.spheres, &o2.assign, n);
-                        if crate::refine::union_outside(model, &s2) < crate::refine::union_outside(model, &s) {
-                            (s, a) = (s2, a2);
+            // Three independent computations run side by side: the SHEXP fit with its
+            // refinement (whose clustering and refinement are sequential, leaving a core idle),
+            // the evenly spaced candidate, and the finer elements of the last refinement. Each
+            // computes the same values whichever thread runs it.
+            let shexp = || {
+                let o = lloyd::fit(&ctx.samples, model, volume_model, &ls, progress);
+                let refined = p.refine.then(|| {
+                    let (mut s, mut a, _) =
+                        crate::refine::refine_to_count(&ctx.samples, model, &o.spheres, &o.assign, n);
+                    if s.len() < n {
+                        // The refinement could not spend every sphere again: refit from its
+                        // spheres plus new medial seeds where the set is sparsest, refine that,
+                        // and keep whichever set has less outside volume in its union (by the
+                        // model).
+                        let kept: Vec<[f64; 3]> = s.iter().map(|x| x.center).collect();
+                        if let Some(c) = lloyd::more_medial_centers(&ctx.samples, &kept, n) {
+                            let o2 = lloyd::fit_from(&ctx.samples, model, volume_model, &ls, &c, progress);
+                            let (s2, a2, _) =
+                                crate::refine::refine_to_count(&ctx.samples, model, &o2.spheres, &o2.assign, n);
+                            if crate::refine::union_outside(model, &s2) < crate::refine::union_outside(model, &s) {
+                                (s, a) = (s2, a2);
+                            }
                         }
                     }
-                }
-                if p.cvt {
-                    // The evenly spaced candidate (see `cvt`): SHEXP's E leaves the slabs of a
-                    // tube uneven, a centroidal tessellation of the medial ridge does not.
+                    (s, a)
+                });
+                (o, refined)
+            };
+            // The evenly spaced candidate (see `cvt`): SHEXP's E leaves the slabs of a tube
+            // uneven, a centroidal tessellation of the medial ridge does not. Its union outside
+            // volume (by the model) before refinement decides below whether it is refined.
+            let candidate = || {
+                (p.refine && p.cvt).then(|| {
                     let seeds = lloyd::medial_centers(&ctx.samples, n)
                         .unwrap_or_else(|| lloyd::init_centers(&ctx.samples, n, p.seed));
                     let (cs, ca) = crate::cvt::fit_from(&ctx.samples, model, &seeds);
-                    // Refining the candidate costs a refinement of the whole set (up to 1 CPU-s
-                    // on the bunny at 64). It is skipped when the unrefined candidate's union
-                    // exceeds `CVT_SKIP_RATIO` times the refined SHEXP set's: on every row
-                    // measured the candidates that won started at most 1.26× above it (the
-                    // refinement lowered a candidate's union by at most 22 %), so a skipped one
-                    // would need a drop of 29 % to win (docs/spheres.md, "Fourth pass").
-                    let u_shexp = crate::refine::union_outside(model, &s);
-                    if crate::refine::union_outside(model, &cs) <= CVT_SKIP_RATIO * u_shexp {
-                        let (s2, a2, _) = crate::refine::refine_to_count(&ctx.samples, model, &cs, &ca, n);
-                        if crate::refine::union_outside(model, &s2) < u_shexp {
-                            (s, a) = (s2, a2);
+                    let u = crate::refine::union_outside(model, &cs);
+                    (cs, ca, u)
+                })
+            };
+            let finer = || (p.refine && p.fine_refine).then(|| fine_samples(ctx));
+            let ((o, refined), (candidate, finer)) = rayon::join(shexp, || rayon::join(candidate, finer));
+            let (spheres, assign) = match refined {
+                Some((mut s, mut a)) => {
+                    if let Some((cs, ca, u_cs)) = candidate {
+                        // Refining the candidate costs a refinement of the whole set (up to 1
+                        // CPU-s on the bunny at 64). It is skipped when the unrefined
+                        // candidate's union exceeds `CVT_SKIP_RATIO` times the refined SHEXP
+                        // set's: on every row measured the candidates that won started at most
+                        // 1.26× above it (the refinement lowered a candidate's union by at most
+                        // 22 %), so a skipped one would need a drop of 29 % to win
+                        // (docs/spheres.md, "Fourth pass").
+                        let u_shexp = crate::refine::union_outside(model, &s);
+                        if u_cs <= CVT_SKIP_RATIO * u_shexp {
+                            let (s2, a2, _) = crate::refine::refine_to_count(&ctx.samples, model, &cs, &ca, n);
+                            if crate::refine::union_outside(model, &s2) < u_shexp {
+                                (s, a) = (s2, a2);
+                            }
                         }
                     }
+                    (s, a)
                 }
-                (s, a)
-            } else {
-                (o.spheres, o.assign)
+                None => (o.spheres.clone(), o.assign.clone()),
             };
             // the final refinement on finer surface elements (see `fine_refine`)
             let (spheres, assign, fine) =
-                match (p.refine && p.fine_refine).then(|| fine_refine(ctx, model, &spheres, &assign, n)).flatten() {
+                match finer.flatten().and_then(|f| fine_refine(&ctx.samples, model, f, &spheres, &assign, n)) {
                     Some((s, a, f)) => (s, a, Some(f)),
                     None => (spheres, assign, None),
                 };
@@ -457,19 +480,10 @@ pub const CVT_SKIP_RATIO: f64 = 1.4;
 /// Surface elements this many times finer than the grid spacing for the final refinement.
 const FINE_DIVISOR: usize = 2;
 
-/// Refines a set again on surface elements `FINE_DIVISOR` times finer. An element must lie
-/// inside one sphere whole; with elements as long as a grid cell, one straddling the boundary
-/// between two spheres makes one of them reach up to an element further (on the torus
-/// at 64 spheres, cells of 0.05 against a sphere spacing of 0.098). The finer elements nest in
-/// the coarser ones, so each starts inside a sphere that contains it whole. `None` when an
-/// element has no such sphere (not expected) or the set does not improve (by the model).
-fn fine_refine(
-    ctx: &Context,
-    model: &VolumeModel,
-    spheres: &[Sphere],
-    assign: &[u32],
-    n: usize,
-) -> Option<(Vec<Sphere>, Vec<u32>, Samples)> {
+/// The surface elements of the final refinement (`FINE_DIVISOR` times finer than the grid
+/// spacing) with the context's interior elements; `None` when they do not nest in the coarse
+/// elements (not expected).
+fn fine_samples(ctx: &Context) -> Option<Samples> {
     let coarse = &ctx.samples;
     let mut fine = Samples::build_finer(&ctx.canonical, &ctx.input, &ctx.frame, &ctx.grid, FINE_DIVISOR);
     fine.interior_depth = coarse.interior_depth.clone();
@@ -480,6 +494,24 @@ fn fine_refine(
     if fine.coarse_parent.len() != fs || fine.coarse_parent.iter().any(|&c| c as usize >= cs) {
         return None;
     }
+    Some(fine)
+}
+
+/// Refines a set again on surface elements `FINE_DIVISOR` times finer. An element must lie
+/// inside one sphere whole; with elements as long as a grid cell, one straddling the boundary
+/// between two spheres makes one of them reach up to an element further (on the torus
+/// at 64 spheres, cells of 0.05 against a sphere spacing of 0.098). The finer elements nest in
+/// the coarser ones, so each starts inside a sphere that contains it whole. `None` when an
+/// element has no such sphere (not expected) or the set does not improve (by the model).
+fn fine_refine(
+    coarse: &Samples,
+    model: &VolumeModel,
+    fine: Samples,
+    spheres: &[Sphere],
+    assign: &[u32],
+    n: usize,
+) -> Option<(Vec<Sphere>, Vec<u32>, Samples)> {
+    let (fs, cs) = (fine.surface_elements, coarse.surface_elements);
     // a finer element lies inside its coarse element, so inside that element's sphere
     let owner: Vec<u32> = (0..fine.elements.len())
         .map(|e| if e >= fs { assign[e - fs + cs] } else { assign[fine.coarse_parent[e] as usize] })
@@ -586,6 +618,7 @@ pub fn fit(scene: &Scene, p: &FitParams, progress: &dyn Progress) -> Result<FitR
         metrics::measure(
             &canon,
             &oracle,
+            ctx.watertight,
             volume_t,
             volume_exact,
             &ctx.samples.input_points,

@@ -468,24 +468,37 @@ fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<
         let el = &samples.elements[e];
         el.point_ids().iter().fold(0.0f64, |m, &p| m.max(dist2(samples.points[p as usize], c))).sqrt()
     };
-    // seeds: each cluster takes its nearest free element
-    for (i, &c) in centers.iter().enumerate() {
+    // seeds: each cluster takes its nearest free element (lowest index on ties). The scans
+    // over all elements run in parallel, ignoring which elements earlier clusters took; a
+    // cluster whose nearest element an earlier cluster took scans again, skipping taken ones.
+    // The nearest element of the whole set, when free, is the nearest free one, so the result
+    // equals the sequential scan's.
+    let reps = samples.reps();
+    let nearest = |c: [f64; 3], free: Option<&[u32]>| -> usize {
         let mut best = (f64::INFINITY, usize::MAX);
-        for (e, el) in samples.elements.iter().enumerate() {
-            if assign[e] == u32::MAX {
-                let d = dist2(el.rep, c);
+        for (e, &r) in reps.iter().enumerate() {
+            if free.is_none_or(|a| a[e] == u32::MAX) {
+                let d = dist2(r, c);
                 if d < best.0 {
                     best = (d, e);
                 }
             }
         }
-        if best.1 == usize::MAX {
+        best.1
+    };
+    let first_choice: Vec<usize> = centers.par_iter().map(|&c| nearest(c, None)).collect();
+    for (i, &c) in centers.iter().enumerate() {
+        let mut e = first_choice[i];
+        if e != usize::MAX && assign[e] != u32::MAX {
+            e = nearest(c, Some(&assign));
+        }
+        if e == usize::MAX {
             continue;
         }
-        assign[best.1] = i as u32;
-        radius[i] = elem_dist(best.1, c);
+        assign[e] = i as u32;
+        radius[i] = elem_dist(e, c);
         base[i] = profiles[i].at(radius[i]);
-        let cell = samples.element_cell(best.1);
+        let cell = samples.element_cell(e);
         if !queued[cell] {
             queued[cell] = true;
             queue.push_back(cell);
@@ -500,16 +513,7 @@ fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<
             // upper bound can win no element of the cell (radii only grow while the cell is
             // processed, which lowers only the growing clusters' bounds), so only the others
             // are evaluated; the result equals a scan of all clusters.
-            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-            for &e in samples.cell(cell) {
-                for &p in samples.elements[e as usize].point_ids() {
-                    let q = samples.points[p as usize];
-                    for d in 0..3 {
-                        lo[d] = lo[d].min(q[d]);
-                        hi[d] = hi[d].max(q[d]);
-                    }
-                }
-            }
+            let [lo, hi] = samples.cell_box(cell);
             let mut min_ub = f64::INFINITY;
             for i in 0..n {
                 let c = centers[i];
@@ -528,14 +532,17 @@ fn cluster(samples: &Samples, model: &VolumeModel, centers: &[[f64; 3]]) -> Vec<
             cands.clear();
             // (a tolerance far above rounding noise, far below any real volume difference)
             cands.extend((0..n).filter(|&i| lb[i] <= min_ub + CANDIDATE_SLACK));
-            for &e in samples.cell(cell) {
+            for (&e, pts) in samples.cell(cell).iter().zip(samples.cell_points(cell)) {
                 let e = e as usize;
                 if assign[e] != u32::MAX {
                     continue;
                 }
+                // the element's points, stored by cell (the same maximum as `elem_dist`: an
+                // interior point is repeated, and max is idempotent)
                 let mut best = (f64::INFINITY, f64::INFINITY, 0usize);
                 for &i in &cands {
-                    let d = elem_dist(e, centers[i]);
+                    let c = centers[i];
+                    let d = pts.iter().fold(0.0f64, |m, &q| m.max(dist2(q, c))).sqrt();
                     let cost = if d <= radius[i] { 0.0 } else { (profiles[i].at(d) - base[i]).max(0.0) };
                     if cost < best.0 || (cost == best.0 && d < best.1) {
                         best = (cost, d, i);

@@ -1,6 +1,6 @@
 //! Quality of a sphere set, measured against the exact inside test of the mesh (the
-//! generalized winding number, `w ≥ ½`, through the grid-accelerated oracle), never against
-//! the fit's own volume model.
+//! generalized winding number, `w ≥ ½`, through the grid-accelerated oracle; on a closed mesh
+//! the same test by ray crossings, see [`inside`]), never against the fit's own volume model.
 //!
 //! - `outside_volume_ratio` E = Σᵢ V(Sᵢ − T) / V(T) (SHEXP eq. 35 over V(T)): per sphere,
 //!   Monte Carlo with `per_sphere_samples` uniform points; standard error reported.
@@ -111,6 +111,94 @@ pub fn volume_of_t(grid: &SignedDistanceGrid, oracle: &InsideOracle, exact: Opti
     (total, false)
 }
 
+/// The inside test of the measurements: [`InsideOracle::is_inside`], except that on a closed
+/// mesh (`closed`: every edge shared by two oppositely oriented triangles) a point the grid
+/// cannot answer is classified by the ray-crossing count ([`penumbra_geometry::WindingNumber::crossing_number`],
+/// each crossing decided with an error bound, falling back to the winding number when no ray
+/// direction decides). On a closed mesh that count *is* the winding number off the surface, an
+/// integer, so `≥ 1` is the same test as `w ≥ ½`; it costs a ray through the tree instead of
+/// the hierarchical sum's `atan2` per nearby triangle (measured on bunny_closed_3k, 200 000
+/// points within 2 % of the diagonal from the surface: 0.63 s against 2.21 s, no point
+/// classified differently). Most of the metrics' time is these near-surface points.
+#[inline]
+fn inside(oracle: &InsideOracle, closed: bool, p: [f64; 3]) -> bool {
+    match oracle.grid.cell_answer(p) {
+        Some(a) => a,
+        None if closed => match oracle.winding.crossing_number(p) {
+            Some(w) => w >= 1,
+            None => oracle.winding.is_inside(p),
+        },
+        None => oracle.winding.is_inside(p),
+    }
+}
+
+/// The spheres whose bounding boxes meet each cell of a uniform grid over a box, so that the
+/// union test of a point tries only the spheres listed in its cell (the same answer as trying
+/// every sphere: a sphere containing a point has the point in its box, and each box is listed
+/// in one more cell on every side than its rounded extent, so rounding cannot drop it).
+struct SphereBins {
+    lo: [f64; 3],
+    inv: [f64; 3],
+    dims: [usize; 3],
+    start: Vec<u32>,
+    ids: Vec<u32>,
+}
+
+impl SphereBins {
+    /// Cells per axis.
+    const DIM: usize = 16;
+
+    fn new(spheres: &[Sphere], lo: [f64; 3], hi: [f64; 3]) -> Self {
+        let dims = [Self::DIM; 3];
+        let inv: [f64; 3] = std::array::from_fn(|d| {
+            let e = hi[d] - lo[d];
+            if e > 0.0 { dims[d] as f64 / e } else { 0.0 }
+        });
+        let cell =
+            |d: usize, x: f64| -> usize { ((x - lo[d]) * inv[d]).floor().clamp(0.0, (dims[d] - 1) as f64) as usize };
+        // `contains` compares squared lengths, so a radius counts by its magnitude
+        let range = |sp: &Sphere, d: usize| {
+            let r = sp.radius.abs();
+            let a = cell(d, sp.center[d] - r).saturating_sub(1);
+            let b = (cell(d, sp.center[d] + r) + 1).min(dims[d] - 1);
+            a..=b
+        };
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1] * dims[2]];
+        for (i, sp) in spheres.iter().enumerate() {
+            if !sp.radius.is_finite() || !sp.center.iter().all(|x| x.is_finite()) {
+                // not binnable: listed everywhere, so it is still tried
+                lists.iter_mut().for_each(|l| l.push(i as u32));
+                continue;
+            }
+            for z in range(sp, 2) {
+                for y in range(sp, 1) {
+                    for x in range(sp, 0) {
+                        lists[x + dims[0] * (y + dims[1] * z)].push(i as u32);
+                    }
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(lists.len() + 1);
+        let mut ids = Vec::new();
+        start.push(0);
+        for l in &lists {
+            ids.extend_from_slice(l);
+            start.push(ids.len() as u32);
+        }
+        Self { lo, inv, dims, start, ids }
+    }
+
+    /// Whether some sphere contains `p`.
+    #[inline]
+    fn any_contains(&self, spheres: &[Sphere], p: [f64; 3]) -> bool {
+        let c: [usize; 3] = std::array::from_fn(|d| {
+            ((p[d] - self.lo[d]) * self.inv[d]).floor().clamp(0.0, (self.dims[d] - 1) as f64) as usize
+        });
+        let b = c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2]);
+        self.ids[self.start[b] as usize..self.start[b + 1] as usize].iter().any(|&i| spheres[i as usize].contains(p))
+    }
+}
+
 /// A uniform point in the unit ball from four hash draws.
 #[inline]
 fn ball_point(seed: u64, item: u64, s: u64) -> [f64; 3] {
@@ -125,11 +213,13 @@ fn ball_point(seed: u64, item: u64, s: u64) -> [f64; 3] {
 /// Measures a sphere set given in the canonical frame. `points` are the sample points in
 /// input coordinates and `input_spheres` the spheres as stored (input frame), for the exact
 /// coverage check; `to_input` maps canonical points to input coordinates; `scale` is the
-/// input diagonal (canonical → input length factor).
+/// input diagonal (canonical → input length factor); `closed` says the oracle's mesh is
+/// watertight (see [`inside`]).
 #[allow(clippy::too_many_arguments)]
 pub fn measure(
     spheres: &[Sphere],
     oracle: &InsideOracle,
+    closed: bool,
     volume_t: f64,
     volume_exact: bool,
     points: &[[f64; 3]],
@@ -147,11 +237,15 @@ pub fn measure(
             let inside = (0..n)
                 .filter(|&k| {
                     let u = ball_point(s.seed, i as u64, k as u64);
-                    oracle.is_inside([
-                        sp.center[0] + sp.radius * u[0],
-                        sp.center[1] + sp.radius * u[1],
-                        sp.center[2] + sp.radius * u[2],
-                    ])
+                    inside(
+                        oracle,
+                        closed,
+                        [
+                            sp.center[0] + sp.radius * u[0],
+                            sp.center[1] + sp.radius * u[1],
+                            sp.center[2] + sp.radius * u[2],
+                        ],
+                    )
                 })
                 .count();
             let p = inside as f64 / n as f64;
@@ -179,6 +273,7 @@ pub fn measure(
     }
     let box_vol = (0..3).map(|d| hi[d] - lo[d]).product::<f64>();
     let m = s.union_samples.max(1);
+    let bins = SphereBins::new(spheres, lo, hi);
     const CHUNK: usize = 4096;
     let chunks: Vec<(usize, usize, f64)> = (0..m.div_ceil(CHUNK))
         .into_par_iter()
@@ -188,8 +283,8 @@ pub fn measure(
                 let p: [f64; 3] = std::array::from_fn(|d| {
                     lo[d] + (hi[d] - lo[d]) * unit_f64(hash4(s.seed, stage::VOLUME_MC, u64::MAX, (3 * k + d) as u64))
                 });
-                let in_u = spheres.iter().any(|sp| sp.contains(p));
-                let in_t = oracle.is_inside(p);
+                let in_u = bins.any_contains(spheres, p);
+                let in_t = inside(oracle, closed, p);
                 if in_u && !in_t {
                     out_u += 1;
                 } else if in_t && !in_u {
@@ -232,5 +327,42 @@ pub fn measure(
         max_uncovered_distance: max_d,
         max_uncovered_distance_rel: max_d / scale,
         uncovered_sample_points: uncovered_points,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn binned_union_test_answers_like_trying_every_sphere() {
+        // spheres of very different sizes, some reaching past the box, points in the box and
+        // on sphere surfaces (where rounding decides): the bins must never drop a sphere
+        let u = |i: u64, k: u64| unit_f64(hash4(3, stage::VOLUME_MC, i, k));
+        let spheres: Vec<Sphere> = (0..80)
+            .map(|i| Sphere::new([u(i, 0) * 2.0 - 0.5, u(i, 1), u(i, 2) * 0.5], 0.002 + 0.3 * u(i, 3).powi(4)))
+            .chain([Sphere::new([0.2, 0.3, 0.1], -0.05)])
+            .collect();
+        let (lo, hi) = ([-0.5, 0.0, 0.0], [1.5, 1.0, 0.5]);
+        let bins = SphereBins::new(&spheres, lo, hi);
+        let mut hits = 0;
+        for k in 0..200_000u64 {
+            let p: [f64; 3] = if k % 2 == 0 {
+                std::array::from_fn(|d| lo[d] + (hi[d] - lo[d]) * u(1000 + k, d as u64))
+            } else {
+                // on the surface of a sphere, up to rounding
+                let sp = &spheres[(k / 2) as usize % spheres.len()];
+                let z = 2.0 * u(k, 7) - 1.0;
+                let (a, rr) = (std::f64::consts::TAU * u(k, 8), (1.0 - z * z).sqrt());
+                let r = sp.radius.abs();
+                [sp.center[0] + r * rr * a.cos(), sp.center[1] + r * rr * a.sin(), sp.center[2] + r * z]
+                    .map(|x| x.clamp(-0.5, 1.5))
+            };
+            let brute = spheres.iter().any(|sp| sp.contains(p));
+            assert_eq!(bins.any_contains(&spheres, p), brute, "{p:?}");
+            hits += usize::from(brute);
+        }
+        // the test sees both answers often
+        assert!(hits > 50_000 && hits < 150_000, "{hits}");
     }
 }

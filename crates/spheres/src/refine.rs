@@ -19,6 +19,8 @@
 //! (at most `passes` times). Sequential in a fixed order, so deterministic for any thread
 //! count (the Powell updates of one pass are independent only within a sphere).
 
+use rayon::prelude::*;
+
 use crate::lloyd::update_sphere;
 use crate::samples::Samples;
 use crate::sphere::{Sphere, dist2};
@@ -27,7 +29,10 @@ use crate::volume::VolumeModel;
 /// `V(∪ spheres − T)` by the volume model: each sphere's outside volume not inside an earlier
 /// one, summed (inclusion in index order, so every outside point counts once).
 pub fn union_outside(model: &VolumeModel, spheres: &[Sphere]) -> f64 {
-    (0..spheres.len()).map(|i| model.exclusive_outside(&spheres[i], &spheres[..i])).sum()
+    // the terms in parallel, summed in index order (the same value for any thread count)
+    let terms: Vec<f64> =
+        (0..spheres.len()).into_par_iter().map(|i| model.exclusive_outside(&spheres[i], &spheres[..i])).collect();
+    terms.iter().sum()
 }
 
 /// What the refinement did.
@@ -59,7 +64,7 @@ pub fn refine(
     };
     for _ in 0..passes {
         stats.passes += 1;
-        let outside: Vec<f64> = sph.iter().map(|s| model.outside_volume(s.center, s.radius)).collect();
+        let outside: Vec<f64> = sph.par_iter().map(|s| model.outside_volume(s.center, s.radius)).collect();
         let mut order: Vec<usize> = (0..n).filter(|&i| alive[i]).collect();
         order.sort_by(|&a, &b| outside[b].total_cmp(&outside[a]).then(a.cmp(&b)));
         // the elements each sphere owns
@@ -162,7 +167,7 @@ pub fn refine_to_count(
     while sph.len() < target && rounds < MAX_SPLIT_ROUNDS {
         rounds += 1;
         let n = sph.len();
-        let outside: Vec<f64> = sph.iter().map(|s| model.outside_volume(s.center, s.radius)).collect();
+        let outside: Vec<f64> = sph.par_iter().map(|s| model.outside_volume(s.center, s.radius)).collect();
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| outside[b].total_cmp(&outside[a]).then(a.cmp(&b)));
         let mut split = None;

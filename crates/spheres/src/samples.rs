@@ -72,6 +72,15 @@ pub struct Samples {
     cell_elements: Vec<u32>,
     elem_cell: Vec<u32>,
     cells: [usize; 3],
+    /// Per flood-fill cell: the box `[lo, hi]` of its elements' points (fixed for the set, so
+    /// computed once here instead of in every clustering pass).
+    cell_boxes: Vec<[[f64; 3]; 2]>,
+    /// Element representatives, contiguous (the clustering's nearest-element scans).
+    reps: Vec<[f64; 3]>,
+    /// The points of every element in `cell_elements` order (an interior element's one point
+    /// three times): the clustering visits elements cell by cell, and loading them from here
+    /// is sequential in memory instead of a jump into `elements` and `points` per element.
+    cell_points: Vec<[[f64; 3]; 3]>,
 }
 
 impl Samples {
@@ -205,6 +214,30 @@ impl Samples {
             cell_elements[fill[c as usize] as usize] = e as u32;
             fill[c as usize] += 1;
         }
+        let cell_boxes = (0..ncell)
+            .map(|c| {
+                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for &e in &cell_elements[cell_start[c] as usize..cell_start[c + 1] as usize] {
+                    for &p in elements[e as usize].point_ids() {
+                        let q = points[p as usize];
+                        for d in 0..3 {
+                            lo[d] = lo[d].min(q[d]);
+                            hi[d] = hi[d].max(q[d]);
+                        }
+                    }
+                }
+                [lo, hi]
+            })
+            .collect();
+        let reps = elements.iter().map(|e| e.rep).collect();
+        let cell_points = cell_elements
+            .iter()
+            .map(|&e| {
+                let el = &elements[e as usize];
+                let ids = el.point_ids();
+                std::array::from_fn(|k| points[ids[k.min(ids.len() - 1)] as usize])
+            })
+            .collect();
         Self {
             points,
             input_points,
@@ -221,6 +254,9 @@ impl Samples {
             cell_elements,
             elem_cell,
             cells,
+            cell_boxes,
+            reps,
+            cell_points,
         }
     }
 
@@ -241,6 +277,27 @@ impl Samples {
     #[inline]
     pub fn cell(&self, c: usize) -> &[u32] {
         &self.cell_elements[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    }
+
+    /// The box `[lo, hi]` of the points of the elements in cell `c` (empty cell: `lo` = +∞,
+    /// `hi` = −∞).
+    #[inline]
+    pub fn cell_box(&self, c: usize) -> [[f64; 3]; 2] {
+        self.cell_boxes[c]
+    }
+
+    /// The points of the elements in cell `c`, in the order of [`Samples::cell`]; each
+    /// element's points padded to three by repeating its last (so a maximum over the three
+    /// equals the maximum over the element's own points).
+    #[inline]
+    pub fn cell_points(&self, c: usize) -> &[[[f64; 3]; 3]] {
+        &self.cell_points[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    }
+
+    /// The representative point of every element, in element order.
+    #[inline]
+    pub fn reps(&self) -> &[[f64; 3]] {
+        &self.reps
     }
 
     /// The cell holding element `e`.
