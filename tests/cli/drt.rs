@@ -498,6 +498,44 @@ fn moving_one_pillar_re_bakes_incrementally_to_the_full_bake_bytes() {
 }
 
 #[test]
+fn moving_one_pillar_re_bakes_the_vector_operators_incrementally_to_the_full_bake_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let level = dir.path().join("room.toml");
+    std::fs::write(&level, "[[block]]\nshape = \"closed\"\ntranslation = [0.5, 0.5, 0.5]\n").unwrap();
+    let c = dir.path().join("c.toml");
+    let state = dir.path().join("s.state");
+    let bake = |x1: f64, out: &str, with_state: bool| {
+        let mut s = String::new();
+        for (x, z) in [(0.25, 0.25), (x1, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+            s += &format!(
+                "[[clutter]]\nbox = {{ size = [0.12, 0.75, 0.12], faces = \"no-bottom\" }}\ntranslate = [{x}, 0.0, {z}]\n"
+            );
+        }
+        std::fs::write(&c, s).unwrap();
+        let mut args = vec!["--level", level.to_str().unwrap(), "--clutter", c.to_str().unwrap(), "--vector"];
+        args.extend(["--vector-rays", "64"]);
+        if with_state {
+            args.extend(["--state", state.to_str().unwrap()]);
+        }
+        let out = dir.path().join(out);
+        let (code, v, stderr) = drt_json(&args, &d, &out);
+        assert_eq!(code, 0, "{stderr}");
+        (v, std::fs::read(&out).unwrap())
+    };
+    let (v, _) = bake(0.75, "a.drto", true);
+    assert_eq!(v["incremental"]["vector"]["used"], false, "{v}");
+    let (v, inc) = bake(0.6, "b.drto", true);
+    let vi = &v["incremental"]["vector"];
+    assert_eq!(vi["used"], true, "{v}");
+    let (traced, reused) = (vi["items_traced"].as_u64().unwrap(), vi["items_reused"].as_u64().unwrap());
+    assert!(reused > 0 && traced > 0, "{v}");
+    assert!(vi["rays_cast"].as_u64().unwrap() < v["vector"]["rays_traced"].as_u64().unwrap(), "{v}");
+    let (_, full) = bake(0.6, "b_full.drto", false);
+    assert!(inc == full, "the incremental vector bake's bytes are a full bake's");
+}
+
+#[test]
 fn vector_operators_and_dyn_probes_beat_mrt_against_the_path_tracer() {
     // MRT thesis §5.4.3: ΔU_b⃗, ΔU_c⃗, C_b⃗ (normal maps) and U_dyn (volume probes), baked with
     // --vector and measured by verify drt at tilted normals and interior points

@@ -900,8 +900,14 @@ pub fn bake_with_state(
     let insts: Vec<usize> = (0..clutter.len()).collect();
     let (scene, csums) = trace(&sc, params, &recv, &insts, progress);
     let b = assemble(&sc, params, DrtShard::WHOLE, &recv, &scene, &insts, &csums, None)?;
-    let state =
-        DrtState { key, instances, blocks: recv.into_iter().zip(scene).collect(), clutter: csums, asset_crc32c: None };
+    let state = DrtState {
+        key,
+        instances,
+        blocks: recv.into_iter().zip(scene).collect(),
+        clutter: csums,
+        asset_crc32c: None,
+        vector: None,
+    };
     Ok((b, state))
 }
 

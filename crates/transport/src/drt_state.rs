@@ -27,10 +27,15 @@
 //! instance's padded world box, so a ray that misses both padded boxes (for `t ≥ 0`, a
 //! superset of every segment the search tests) gives the same outcome in both scenes and
 //! is not re-traced. A moved instance's own texels are traced again in full.
+//!
+//! The vector operators (`--vector`) are `f64` sums, which cannot be re-traced ray by ray to
+//! the same bits: the state keeps each item's output instead ([`DrtState::vector`]), and a
+//! re-bake traces again the items a moved instance may touch ([`crate::drt_vector::VectorReuse`]).
 
 use crate::TransportError;
 use crate::clutter::ClutterScene;
 use crate::drt::{DrtDict, RayHit, Scene, frame_dir, rotated_frame, rotation};
+use crate::drt_vector::{ItemOut, VectorItems};
 use crate::gather::DirectionSet;
 use crate::level::Level;
 use serde::{Deserialize, Serialize};
@@ -434,6 +439,11 @@ pub struct DrtState {
     /// CRC-32C of the asset bytes this bake wrote (set by the caller): the next incremental
     /// re-bake copies the unchanged records from that asset when it still finds it.
     pub asset_crc32c: Option<u32>,
+    /// The vector operators' items (`--vector`, [`crate::drt_vector::bake_vector_items`]),
+    /// `None` when the bake had none. They are `f64` outputs per item, not sums: an
+    /// incremental re-bake re-traces every item a moved instance may touch and copies the
+    /// others ([`crate::drt_vector::VectorReuse`]).
+    pub vector: Option<VectorItems>,
 }
 
 const MAGIC: &[u8; 8] = b"PNBDRTS\x01";
@@ -446,6 +456,40 @@ struct Header {
     clutter: Vec<usize>,
     #[serde(default)]
     asset_crc32c: Option<u32>,
+    /// Item counts of the vector section (absent in states without one, and in states
+    /// written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    vector: Option<VectorHeader>,
+}
+
+/// Per list of [`VectorItems`]: `(block or instance, items)`.
+#[derive(Serialize, Deserialize)]
+struct VectorHeader {
+    scene: Vec<(usize, usize)>,
+    clutter: Vec<(usize, usize)>,
+    probes: Vec<(usize, usize)>,
+}
+
+fn counts(l: &[(usize, Vec<ItemOut>)]) -> Vec<(usize, usize)> {
+    l.iter().map(|(k, v)| (*k, v.len())).collect()
+}
+
+fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
+    out.extend((v.len() as u32).to_le_bytes());
+    for x in v {
+        out.extend(x.to_bits().to_le_bytes());
+    }
+}
+
+fn put_item(out: &mut Vec<u8>, (blocks, charts, back): &ItemOut) {
+    for list in [blocks, charts] {
+        out.extend((list.len() as u32).to_le_bytes());
+        for (k, v) in list {
+            out.extend((*k as u32).to_le_bytes());
+            put_f64s(out, v);
+        }
+    }
+    out.extend((*back as u64).to_le_bytes());
 }
 
 fn put_sums(out: &mut Vec<u8>, s: &Sums) {
@@ -503,6 +547,28 @@ impl Reader<'_> {
         }
         Ok(Sums { rows, charts, back: self.i64()? })
     }
+    fn f64s(&mut self) -> Result<Vec<f64>, TransportError> {
+        let n = self.u32()? as usize;
+        let b = self.take(n.checked_mul(8).ok_or_else(|| TransportError::Input("DRT state: bad length".into()))?)?;
+        Ok(b.chunks_exact(8).map(|c| f64::from_bits(u64::from_le_bytes(c.try_into().unwrap_or_default()))).collect())
+    }
+    fn item(&mut self) -> Result<ItemOut, TransportError> {
+        let mut lists = [Vec::new(), Vec::new()];
+        for list in &mut lists {
+            let n = self.u32()? as usize;
+            list.reserve(n.min(1 << 16));
+            for _ in 0..n {
+                let k = self.u32()? as usize;
+                list.push((k, self.f64s()?));
+            }
+        }
+        let back = self.i64()? as usize;
+        let [blocks, charts] = lists;
+        Ok((blocks, charts, back))
+    }
+    fn items(&mut self, h: &[(usize, usize)]) -> Result<Vec<(usize, Vec<ItemOut>)>, TransportError> {
+        h.iter().map(|&(k, n)| Ok((k, (0..n).map(|_| self.item()).collect::<Result<Vec<_>, _>>()?))).collect()
+    }
 }
 
 impl DrtState {
@@ -514,6 +580,11 @@ impl DrtState {
             blocks: self.blocks.iter().map(|(b, s)| (*b, s.len())).collect(),
             clutter: self.clutter.iter().map(Vec::len).collect(),
             asset_crc32c: self.asset_crc32c,
+            vector: self.vector.as_ref().map(|v| VectorHeader {
+                scene: counts(&v.scene),
+                clutter: counts(&v.clutter),
+                probes: counts(&v.probes),
+            }),
         };
         let hj = serde_json::to_vec(&h).unwrap_or_default();
         let mut out = Vec::with_capacity(1 << 20);
@@ -533,6 +604,13 @@ impl DrtState {
                         put_sums(&mut out, s);
                     }
                     None => out.push(0),
+                }
+            }
+        }
+        if let Some(v) = &self.vector {
+            for (_, items) in v.scene.iter().chain(&v.clutter).chain(&v.probes) {
+                for it in items {
+                    put_item(&mut out, it);
                 }
             }
         }
@@ -573,10 +651,18 @@ impl DrtState {
             }
             clutter.push(v);
         }
+        let vector = match &h.vector {
+            Some(vh) => Some(VectorItems {
+                scene: r.items(&vh.scene)?,
+                clutter: r.items(&vh.clutter)?,
+                probes: r.items(&vh.probes)?,
+            }),
+            None => None,
+        };
         if r.at != body.len() {
             return Err(bad("trailing bytes"));
         }
-        Ok(Self { key: h.key, instances: h.instances, blocks, clutter, asset_crc32c: h.asset_crc32c })
+        Ok(Self { key: h.key, instances: h.instances, blocks, clutter, asset_crc32c: h.asset_crc32c, vector })
     }
 }
 

@@ -16,7 +16,9 @@ use penumbra_transport::drt::{DrtDict, DrtParams, DrtShard, KcMode, bake_increme
 use penumbra_transport::drt_asset::{DrtInputs, to_asset};
 use penumbra_transport::drt_examples::example;
 use penumbra_transport::drt_state::{DrtState, StateInstance};
-use penumbra_transport::drt_vector::{DrtVectorBake, VectorMetrics, VectorParams, bake_vector};
+use penumbra_transport::drt_vector::{
+    DrtVectorBake, VectorIncStats, VectorItems, VectorMetrics, VectorParams, VectorReuse, bake_vector_items,
+};
 use penumbra_transport::level::{Level, Links};
 use penumbra_transport::level_ops::DictOps;
 use penumbra_transport::level_reference::PointLight;
@@ -488,8 +490,13 @@ pub fn bake_scene_stateful(
     });
     let rep = Reporter::new("drt", mode);
     let mut report = json!({"state": state_path.display().to_string(), "used": false});
-    let (b, state) = match prev {
+    // the previous bake's vector items, its clutter and what moved since (an incremental
+    // vector re-bake's inputs), once the scalar re-bake has used the state
+    let mut vec_prev: Result<(VectorItems, ClutterScene, Vec<usize>), String> =
+        Err("the scalar operators were baked in full".into());
+    let (b, mut state) = match prev {
         Ok(mut st) => {
+            let prev_vec = st.vector.take();
             let moved: Vec<usize> = (0..insts.len())
                 .filter(|&i| {
                     let (a, b) = (&st.instances[i], &insts[i]);
@@ -523,6 +530,10 @@ pub fn bake_scene_stateful(
             match inc {
                 Ok((b, stats)) => {
                     st.instances = insts;
+                    vec_prev = prev_vec.map(|v| (v, old, moved.clone())).ok_or_else(|| {
+                        "the state holds no vector operators (baked without --vector, or before states kept them)"
+                            .to_string()
+                    });
                     let names: Vec<&str> = moved.iter().map(|&i| sc.clutter.specs[i].name.as_str()).collect();
                     report = json!({"state": state_path.display().to_string(), "used": true, "moved": names,
                                     "rays_cast": stats.rays_cast, "rays_full": stats.rays_full,
@@ -548,16 +559,25 @@ pub fn bake_scene_stateful(
         }
     };
     rep.finish();
-    // the vector operators are not in the state: traced in full on every bake
-    let v = vector_of(sc, params, &b, mode)?;
-    if v.is_some() {
-        report["vector"] = json!("traced in full (the state holds the scalar operators' sums only)");
-    }
+    let reuse = vec_prev.as_ref().ok().map(|(items, old, moved)| VectorReuse { prev: items, old, moved });
+    let v = vector_items_of(sc, params, &b, reuse, mode)?;
+    let v = match v {
+        Some((v, items, stats)) => {
+            report["vector"] = match (&vec_prev, report["used"].as_bool() == Some(true)) {
+                (Ok(_), _) => json!({"used": true, "items_traced": stats.items_traced,
+                                     "items_reused": stats.items_reused, "rays_cast": stats.rays_cast}),
+                (Err(why), true) => json!({"used": false, "reason": why}),
+                (Err(_), false) => json!({"used": false, "reason": "the scalar operators were baked in full"}),
+            };
+            state.vector = Some(items);
+            Some(v)
+        }
+        None => None,
+    };
     let inputs = sc.inputs();
     let asset =
         to_asset(&b, &sc.clutter, &inputs, Some(&cache_key(sc, params)), v.as_ref()).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
-    let mut state = state;
     state.asset_crc32c = Some(penumbra_asset::crc32c(&bytes));
     let sb = state.to_bytes();
     report["state_bytes"] = json!(sb.len());
@@ -590,13 +610,24 @@ fn vector_of(
     b: &penumbra_transport::drt::DrtBake,
     mode: ProgressMode,
 ) -> Result<Option<DrtVectorBake>, CliError> {
+    Ok(vector_items_of(sc, params, b, None, mode)?.map(|v| v.0))
+}
+
+/// [`vector_of`] with the items a state keeps, from a previous bake's where `reuse` gives them.
+fn vector_items_of(
+    sc: &DrtScene,
+    params: &DrtParams,
+    b: &penumbra_transport::drt::DrtBake,
+    reuse: Option<VectorReuse<'_>>,
+    mode: ProgressMode,
+) -> Result<Option<(DrtVectorBake, VectorItems, VectorIncStats)>, CliError> {
     let Some(rays) = params.vector_rays else { return Ok(None) };
     let rep = Reporter::new("drt vector", mode);
     // a shard's receiving blocks and instances: `drt merge` joins the shards' records
     let recv: Vec<usize> = b.receivers.iter().map(|r| r.block).collect();
     let insts: Vec<usize> = (0..sc.clutter.len()).filter(|&i| b.shard.owns(i)).collect();
     let vp = VectorParams { rays, volume_res: params.volume_res.unwrap_or(sc.dict.volume_res) };
-    let v = bake_vector(&sc.level, &sc.links, &sc.dict, &sc.clutter, &recv, &insts, params.seed, vp, &rep)
+    let v = bake_vector_items(&sc.level, &sc.links, &sc.dict, &sc.clutter, &recv, &insts, params.seed, vp, reuse, &rep)
         .map_err(|e| CliError::input(anyhow!("{e}")))?;
     rep.finish();
     Ok(Some(v))
