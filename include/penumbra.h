@@ -88,6 +88,27 @@
 #define PN_INDIRECT_EXACT 2
 
 /*
+ [`pn_mrt_features`]: the dictionary has `U_b⃗` for every shape of the level.
+ */
+#define PN_MRT_VECTOR 1
+
+/*
+ [`pn_mrt_features`]: the dictionary has `U_bvol` (volume probes) for every shape of the level.
+ */
+#define PN_MRT_VOLUME 2
+
+/*
+ [`pn_mrt_features`]: the dictionary has the interfaces' `U_r⃗` and `U_rvol`.
+ */
+#define PN_MRT_INTERFACE_VECTORS 4
+
+/*
+ [`pn_mrt_features`]: texel world positions and frames ([`pn_mrt_texel_world`]) are
+ available (the level has `block_xform`, the dictionary texel positions and `face_frames`).
+ */
+#define PN_MRT_TEXEL_WORLD 8
+
+/*
  Zonal table `cap_log` (starred ZH of a blocker cap's log visibility), argument θ in radians.
  */
 #define PN_TABLE_CAP_LOG 0
@@ -237,6 +258,30 @@ typedef struct pn_mrt_shape {
    */
   const float *t_d2b;
 } pn_mrt_shape;
+
+/*
+ A texel in the world (level `block_xform` and quarter turns applied): its centre, its
+ inward unit normal (the side light arrives from: the OHLSH coefficients' z), and its
+ face's `u` and `v` axes (the coefficients' x and y).
+ */
+typedef struct pn_texel_world {
+  /*
+   Texel centre, world units.
+   */
+  float position[3];
+  /*
+   Inward unit normal.
+   */
+  float normal[3];
+  /*
+   The face's u axis.
+   */
+  float u[3];
+  /*
+   The face's v axis.
+   */
+  float v[3];
+} pn_texel_world;
 
 /*
  Options of a shadow evaluator; [`pn_shadow_new`] with NULL options uses
@@ -663,6 +708,111 @@ size_t pn_mrt_block_shape(const struct pn_mrt *m, size_t block);
  `m` live; `out` writable.
  */
 int32_t pn_mrt_shape_info(const struct pn_mrt *m, size_t shape, struct pn_mrt_shape *out);
+
+/*
+ What the level and dictionary carry: an OR of `PN_MRT_*` flags (0 for NULL).
+
+ # Safety
+ `m` is NULL or a live handle.
+ */
+uint32_t pn_mrt_features(const struct pn_mrt *m);
+
+/*
+ World position, inward normal and face axes of every texel (level texel order, `texels`
+ entries): block-local `p` lands at `translation + R_q(scale ⊙ (p − ½))`, directions turn by
+ `R_q` (MRTL `block_xform`, quarter turns about +Y). [`PN_ERR_ABSENT`] without
+ [`PN_MRT_TEXEL_WORLD`]. A load-time call: it allocates a scratch copy of the frames.
+
+ # Safety
+ `m` live; `out` holds `texels` writable entries.
+ */
+int32_t pn_mrt_texel_world(const struct pn_mrt *m, struct pn_texel_world *out, size_t texels);
+
+/*
+ Per texel the 4 OHLSH coefficients of the indirect incident radiance from the last
+ [`crate::pn_mrt_indirect`] (`out`: `4 × texels` floats, texel-major): `U_b⃗[t]·b` with the
+ same-face rule, plus with `interfaces` the interfaces' `U_r⃗ r` turned into the texel's
+ frame. Irradiance at a unit normal `m` given in the texel frame `(u, v, normal)`:
+ [`pn_ohlsh_irradiance`]. [`PN_ERR_ABSENT`] without [`PN_MRT_VECTOR`].
+
+ # Safety
+ `m` live; `out` holds `4 × texels` writable floats.
+ */
+int32_t pn_mrt_vector_coefficients(const struct pn_mrt *m,
+                                   float *out,
+                                   size_t texels,
+                                   bool interfaces);
+
+/*
+ Probes per block edge cubed (`G`) of block `block`'s volume probes: 0 without `U_bvol`,
+ `SIZE_MAX` when `block` is out of range (or `m` is NULL).
+
+ # Safety
+ `m` is NULL or a live handle.
+ */
+size_t pn_mrt_probe_count(const struct pn_mrt *m, size_t block);
+
+/*
+ The world-frame order-3 SH (9 floats per probe, probe-major; probes x fastest, then y,
+ then z, at the block-local cell centres of a `g³` grid) of block `block`'s volume probes
+ from the last [`crate::pn_mrt_indirect`]: `U_bvol·b`, plus with `interfaces` the
+ interfaces' `U_rvol r`, turned by the block's quarter turns. `len` must be
+ `9 × pn_mrt_probe_count`. [`PN_ERR_RANGE`] for a bad block, [`PN_ERR_ABSENT`] without
+ `U_bvol`. Does not allocate (the buffer is reserved at setup).
+
+ # Safety
+ `m` live; `out` holds `len` writable floats.
+ */
+int32_t pn_mrt_probe_sh(struct pn_mrt *m, size_t block, float *out, size_t len, bool interfaces);
+
+/*
+ Irradiance of block `block`'s probes at block-local `p ∈ [0, 1]³` for a world unit normal
+ `n`: trilinear interpolation of `sh` (the output of [`pn_mrt_probe_sh`] for that block,
+ `len` floats) between the 8 surrounding probe centres (clamped to the outermost centres),
+ then [`pn_sh9_irradiance`]. Written to `out`.
+
+ # Safety
+ `m` live; `sh` holds `len` floats; `p`, `n` 3 floats; `out` writable.
+ */
+int32_t pn_mrt_probe_irradiance(const struct pn_mrt *m,
+                                size_t block,
+                                const float *sh,
+                                size_t len,
+                                const float *p,
+                                const float *n,
+                                float *out);
+
+/*
+ The block containing world point `w` and its block-local coordinates in `[0, 1]³` (the
+ first block in level order whose box holds it). [`PN_ERR_RANGE`] when no block holds it,
+ [`PN_ERR_ABSENT`] without `block_xform`.
+
+ # Safety
+ `m` live; `w` 3 readable floats; `block` writable; `local` 3 writable floats.
+ */
+int32_t pn_mrt_locate(const struct pn_mrt *m, const float *w, size_t *block, float *local);
+
+/*
+ Irradiance `E(m)` at unit normal `m` of incident radiance given by 4 OHLSH coefficients
+ `a` in the same frame (MRT thesis App. B), as [`pn_mrt_vector_coefficients`] gives them:
+ `E(m) = π·y₀₀·a₀ + (2π/3)·√(3/4π)·(a₃·(−m_x) + a₁·(−m_y) + a₂·m_z)` (the OHLSH linear band,
+ docs/mrt.md). NaN when a pointer is NULL.
+
+ # Safety
+ `a` 4 readable floats, `m` 3.
+ */
+float pn_ohlsh_irradiance(const float *a,
+                          const float *m);
+
+/*
+ Irradiance at unit normal `n` of radiance given by order-3 real SH `c` (9 floats, the
+ project's SH convention, schemas/asset-format.md), convolved with the clamped cosine
+ (Ramamoorthi–Hanrahan). NaN when a pointer is NULL.
+
+ # Safety
+ `c` 9 readable floats, `n` 3.
+ */
+float pn_sh9_irradiance(const float *c, const float *n);
 
 /*
  Makes a posed set in the rest pose of `set` (the stored leaves and nodes).

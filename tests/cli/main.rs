@@ -3,6 +3,7 @@
 //! Real-data tests skip with a message when `../shared/data` is absent.
 
 mod bake;
+mod capi_mrt;
 mod capi_shadows;
 mod compat;
 mod drt;

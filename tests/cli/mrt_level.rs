@@ -265,7 +265,7 @@ fn runtime_places_texels_in_the_padded_atlas_and_adds_light_only_through_records
 
 /// A U-turn of four blocks (dead end → corner → corner → dead end, the last beside the
 /// first): a light in block 0 cannot see block 3, whose light all arrives across interfaces.
-const U_TURN: &str = "[[block]]\nshape = \"dead_end\"\nrotation = 1\ntranslation = [0.5, 0.5, 0.5]\n\
+pub const U_TURN: &str = "[[block]]\nshape = \"dead_end\"\nrotation = 1\ntranslation = [0.5, 0.5, 0.5]\n\
 [[block]]\nshape = \"corner\"\nrotation = 3\ntranslation = [1.5, 0.5, 0.5]\n\
 [[block]]\nshape = \"corner\"\nrotation = 2\ntranslation = [1.5, 0.5, 1.5]\n\
 [[block]]\nshape = \"dead_end\"\nrotation = 1\ntranslation = [0.5, 0.5, 1.5]\n\

@@ -27,6 +27,7 @@ mod drt;
 mod fiv;
 mod lighting;
 mod mrt;
+mod mrt_vec;
 mod pose;
 mod shadows;
 
@@ -34,6 +35,7 @@ pub use drt::*;
 pub use fiv::*;
 pub use lighting::*;
 pub use mrt::*;
+pub use mrt_vec::*;
 pub use pose::*;
 pub use shadows::*;
 

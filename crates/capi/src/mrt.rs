@@ -11,7 +11,10 @@ use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
 /// at a time.
 #[derive(Debug)]
 pub struct pn_mrt {
-    rt: MrtRuntime<'static>,
+    pub(crate) rt: MrtRuntime<'static>,
+    /// `G × 9` floats of the largest probe grid of the level, reserved at setup so that
+    /// [`crate::pn_mrt_probe_sh`] does not allocate.
+    pub(crate) probes: Vec<f32>,
 }
 
 /// Opens a level and its dictionary over the caller's bytes (both kept alive until
@@ -37,7 +40,10 @@ pub unsafe extern "C" fn pn_mrt_open(
         let l = parse(level_data, level_size).map_err(|(c, m)| (c, format!("level: {m}")))?;
         let dict = MrtDictionary::from_asset(&d).map_err(runtime_err)?;
         let level = MrtLevel::from_asset(&l, &dict).map_err(runtime_err)?;
-        emit(out, pn_mrt { rt: MrtRuntime::new(dict, level) });
+        let rt = MrtRuntime::new(dict, level);
+        let g = rt.level().shapes.iter().filter_map(|&s| rt.dictionary().shapes[s].u_bvol).map(|(_, p)| p.len() / 3);
+        let probes = Vec::with_capacity(9 * g.max().unwrap_or(0));
+        emit(out, pn_mrt { rt, probes });
         Ok(())
     })
 }

@@ -207,7 +207,9 @@ impl MrtRuntime<'_> {
         self.probe_sh_parts(x, out, true)
     }
 
-    /// [`MrtRuntime::probe_sh`] with (`interfaces`) or without the `U_rvol r` part.
+    /// [`MrtRuntime::probe_sh`] with (`interfaces`) or without the `U_rvol r` part. Allocates
+    /// only when `out` holds fewer than `G × 9` values' capacity (the C ABI reserves them at
+    /// setup).
     pub fn probe_sh_parts(&self, x: usize, out: &mut Vec<f32>, interfaces: bool) -> usize {
         out.clear();
         let sh = &self.dictionary().shapes[self.level().shapes[x]];
@@ -216,14 +218,15 @@ impl MrtRuntime<'_> {
         let kb = self.level().k_b;
         let b = &self.coefficients()[x * kb..x * kb + sh.k_b];
         // shape frame first (b and every interface), then one rotation into the world
-        let mut shape_sh = vec![[0.0f32; 9]; g];
-        let mut col = vec![0.0f32; sh.k_b];
-        for (p, c) in shape_sh.iter_mut().enumerate() {
+        out.resize(g * 9, 0.0);
+        let mut col = [0.0f32; 256];
+        let col = &mut col[..sh.k_b];
+        for (p, c) in out.chunks_exact_mut(9).enumerate() {
             for (j, cj) in c.iter_mut().enumerate() {
                 for (i, v) in col.iter_mut().enumerate() {
                     *v = vol[(p * sh.k_b + i) * 9 + j];
                 }
-                *cj = dot(&col, b);
+                *cj = dot(col, b);
             }
         }
         if let Some(iv) = self.dictionary().vectors.as_ref().filter(|_| interfaces) {
@@ -235,7 +238,7 @@ impl MrtRuntime<'_> {
                 }
                 let r = &self.response_coefficients()[gi * k_r..(gi + 1) * k_r];
                 let q = crate::mrt::canonical_turns(face as usize);
-                for (p, c) in shape_sh.iter_mut().enumerate() {
+                for (p, c) in out.chunks_exact_mut(9).enumerate() {
                     let pc = canonical_probe(p, res, q);
                     let mut cc = [0.0f32; 9];
                     for (j, v) in cc.iter_mut().enumerate() {
@@ -249,8 +252,9 @@ impl MrtRuntime<'_> {
             }
         }
         let angle = self.level().rotations[x] as f32 * core::f32::consts::FRAC_PI_2;
-        for c in &shape_sh {
-            out.extend_from_slice(&rotate_sh9_y(c, angle));
+        for c in out.chunks_exact_mut(9) {
+            let shape_frame: [f32; 9] = core::array::from_fn(|j| c[j]);
+            c.copy_from_slice(&rotate_sh9_y(&shape_frame, angle));
         }
         g
     }
