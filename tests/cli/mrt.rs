@@ -263,3 +263,87 @@ fn raw_gather_is_checked_against_exact_form_factors() {
     assert!(b["f_max_column_sum"].as_f64().unwrap() <= 1.0 + 1e-12, "{b}");
     assert!(r["f_max_column_sum"].as_f64().unwrap() > 1.02, "{r}");
 }
+
+#[test]
+fn a_dictionary_for_a_level_bakes_only_its_shapes_to_the_whole_dictionarys_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let level = dir.path().join("two.toml");
+    std::fs::write(
+        &level,
+        "[[block]]\nshape = \"dead_end\"\ntranslation = [0.5, 0.5, 0.5]\n[[block]]\nshape = \"dead_end\"\n\
+         rotation = 2\ntranslation = [0.5, 0.5, 1.5]\n[[connection]]\na = 0\na_face = \"+z\"\nb = 1\nb_face = \"+z\"\n",
+    )
+    .unwrap();
+    let (sub, full) = (dir.path().join("sub.mrtd"), dir.path().join("full.mrtd"));
+    let vs = dict_json(&["--for-level", level.to_str().unwrap()], &sub);
+    let vf = dict_json(&[], &full);
+    // the level's shape and the closed cube (its Table 3.2 and App. A checks), one opening
+    assert_eq!(vs["shapes_baked"], serde_json::json!(["closed", "dead_end"]));
+    assert_eq!(vf["shapes_baked"].as_array().unwrap().len(), 6);
+    assert_eq!(vs["interfaces"], serde_json::json!(["dead_end.+z"]));
+    assert!(vs["bytes"].as_u64().unwrap() < vf["bytes"].as_u64().unwrap() / 2, "{vs}");
+    // each baked shape's operators are the whole dictionary's, bit for bit
+    let (fs, ff) = (penumbra_asset::AssetFile::open(&sub).unwrap(), penumbra_asset::AssetFile::open(&full).unwrap());
+    let (a, b) = (fs.asset(), ff.asset());
+    for s in ["closed", "dead_end"] {
+        for sec in ["u_b", "t_d2b", "l_imp", "u_bvec", "u_bvol"] {
+            let name = format!("{s}.{sec}");
+            let (x, y) = (a.section(&name).unwrap().as_f32().unwrap(), b.section(&name).unwrap().as_f32().unwrap());
+            assert!(x == y, "{name} differs");
+        }
+    }
+    assert!(a.section("straight.u_b").is_none());
+    assert_eq!(vs["table_3_2"], vf["table_3_2"]);
+    // the level bakes and verifies against it
+    let l = dir.path().join("two.mrtl");
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "level"]).arg(&level).arg("--dict").arg(&sub).arg("-o").arg(&l));
+    assert_eq!(code, 0, "{stderr}");
+    // a level naming a shape the dictionary lacks: exit 2, the file and the known shapes named
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[[block]]\nshape = \"donut\"\ntranslation = [0.5, 0.5, 0.5]\n").unwrap();
+    let out = dir.path().join("bad.mrtd");
+    let (code, _, stderr) =
+        run(penumbra().args(["mrt", "dict"]).args(SMALL).arg("--for-level").arg(&bad).arg("-o").arg(&out));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("bad.toml") && stderr.contains("donut") && stderr.contains("cross"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_bake_config_with_a_level_bakes_the_dictionary_for_that_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let mrt = "[mrt]\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\nvector_rays = 64\nvolume_res = 2\nprobe_rays = 64\n\
+               test_lights = 3\nreference_rays = 128\nlf_spatial = 4\nlf_dir = 6\nlf_super = 2\nk_rlf = 24\nk_r = 8\n\
+               response_rays = 64\n";
+    let bake = |extra: &str| -> Value {
+        std::fs::write(&cfg, format!("output_dir = \"out\"\n{mrt}{extra}[mrt_level]\nmaze = 3\nseed = 1\n")).unwrap();
+        let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+        assert_eq!(code, 0, "{stderr}");
+        let v: Value = serde_json::from_str(&stdout).unwrap();
+        v["stages"].as_array().unwrap().iter().find(|s| s["name"] == "mrt").unwrap()["metrics"].clone()
+    };
+    let m = bake("");
+    let baked: std::collections::BTreeSet<String> =
+        m["shapes_baked"].as_array().unwrap().iter().map(|s| s.as_str().unwrap().to_string()).collect();
+    // exactly the maze's shapes (as `mrt level` resolves it against this dictionary) and the closed cube
+    let lt = dir.path().join("maze.toml");
+    let (code, _, stderr) = run(penumbra()
+        .args(["mrt", "level", "--maze", "3", "--seed", "1", "--dict"])
+        .arg(dir.path().join("out/dictionary.mrtd"))
+        .arg("--write-level")
+        .arg(&lt)
+        .arg("-o")
+        .arg(dir.path().join("x.mrtl")));
+    assert_eq!(code, 0, "{stderr}");
+    let text = std::fs::read_to_string(&lt).unwrap();
+    let mut want: std::collections::BTreeSet<String> =
+        text.lines().filter_map(|l| l.strip_prefix("shape = ")).map(|s| s.trim_matches('"').to_string()).collect();
+    want.insert("closed".into());
+    assert_eq!(baked, want, "{text}");
+    assert!(baked.len() < 6);
+    // opting out bakes the whole dictionary
+    let m = bake("level_shapes_only = false\n");
+    assert_eq!(m["shapes_baked"].as_array().unwrap().len(), 6);
+}

@@ -339,6 +339,11 @@ pub struct MrtStage {
     /// kind_version 4; false keeps the kind-version-3 bytes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub interface_vectors: Option<bool>,
+    /// Bake only the shapes the `[mrt_level]` level uses, plus the closed cube (default true
+    /// when the config has `[mrt_level]` and `[drt]` uses no built-in example scene; false
+    /// bakes the whole dictionary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level_shapes_only: Option<bool>,
     /// Output file name inside `output_dir` (default `dictionary.mrtd`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,

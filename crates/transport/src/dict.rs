@@ -86,6 +86,12 @@ pub struct DictParams {
     /// §3.5.4–3.5.5 driven by `r`) with `vector_rays`, `volume_res`, `probe_rays`; MRTD kind
     /// version 4. Off: the kind-version-3 bytes.
     pub interface_vectors: bool,
+    /// Bake only these shapes (by name, in the dictionary's order; `None`: all of them). The
+    /// closed cube is always baked (Table 3.2 and App. A are measured on it). Each shape keeps
+    /// its index in the whole dictionary as its hash stream, so a shape's operators are the
+    /// bytes the whole dictionary would hold; the interfaces' shared basis is fitted to the
+    /// openings of the shapes baked.
+    pub only: Option<Vec<String>>,
 }
 
 impl DictParams {
@@ -114,7 +120,19 @@ impl DictParams {
             interfaces: true,
             interface: InterfaceParams::default(),
             interface_vectors: true,
+            only: None,
         }
+    }
+
+    /// The shapes this bake bakes, each with its index in the whole dictionary (its hash
+    /// stream): all of them, or those `only` names plus the closed cube.
+    pub fn shapes(&self) -> Vec<(u64, Shape)> {
+        let all = self.dictionary.shapes();
+        all.iter()
+            .enumerate()
+            .filter(|(_, s)| self.only.as_ref().is_none_or(|o| s.missing == 0 || o.iter().any(|n| n == s.name)))
+            .map(|(i, s)| (i as u64, *s))
+            .collect()
     }
 
     /// The normalised parameters as JSON (the asset's `meta.params`; hashed for cache keys).
@@ -151,6 +169,11 @@ impl DictParams {
         // only when on: a dictionary baked without it keeps its kind-version-3 bytes and key
         if self.interface_vectors {
             v["interface_vectors"] = serde_json::Value::Bool(true);
+        }
+        // only when given: a whole dictionary keeps its bytes and key
+        if self.only.is_some() {
+            let names: Vec<&str> = self.shapes().iter().map(|(_, s)| s.name).collect();
+            v["shapes"] = serde_json::json!(names);
         }
         v
     }
@@ -229,6 +252,17 @@ impl DictParams {
         }
         if !(16..=65536).contains(&ip.response_rays) {
             return bad("response_rays", ip.response_rays.to_string(), "16..=65536");
+        }
+        if let Some(only) = &self.only {
+            let all = self.dictionary.shapes();
+            if let Some(n) = only.iter().find(|n| !all.iter().any(|s| s.name == n.as_str())) {
+                let known: Vec<&str> = all.iter().map(|s| s.name).collect();
+                return Err(TransportError::Param(format!(
+                    "shape {n:?} is not in the {} dictionary (known: {})",
+                    self.dictionary.name(),
+                    known.join(", ")
+                )));
+            }
         }
         Ok(())
     }
@@ -531,15 +565,19 @@ struct ShapeWork {
 /// Bakes a dictionary.
 pub fn bake(params: &DictParams, progress: &dyn Progress) -> Result<DictBake, TransportError> {
     params.validate()?;
-    let shapes = params.dictionary.shapes();
-    bake_shapes(params, &shapes, progress)
+    bake_shapes(params, &params.shapes(), progress)
 }
 
-/// Bakes the given shapes (the closed cube must be among them for Table 3.2 and the App. A
-/// case; [`bake`] always includes it).
-pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progress) -> Result<DictBake, TransportError> {
+/// Bakes the given shapes, each with its hash stream (its index in the whole dictionary; the
+/// closed cube must be among them for Table 3.2 and the App. A case; [`bake`] always
+/// includes it).
+pub fn bake_shapes(
+    params: &DictParams,
+    shapes: &[(u64, Shape)],
+    progress: &dyn Progress,
+) -> Result<DictBake, TransportError> {
     let res = params.face_res;
-    let total_texels: u64 = shapes.iter().map(|s| Texels::new(*s, res).len() as u64).sum();
+    let total_texels: u64 = shapes.iter().map(|(_, s)| Texels::new(*s, res).len() as u64).sum();
     let stages = ShapeStages {
         transport: Stage { name: "transport", done: AtomicU64::new(0), total: total_texels, progress },
         vector: Stage { name: "vector irradiance", done: AtomicU64::new(0), total: total_texels, progress },
@@ -550,11 +588,8 @@ pub fn bake_shapes(params: &DictParams, shapes: &[Shape], progress: &dyn Progres
         hemi: DirectionSet::uniform_hemisphere(params.vector_rays),
         sphere: DirectionSet::uniform_sphere(params.probe_rays),
     };
-    let work: Vec<ShapeWork> = shapes
-        .par_iter()
-        .enumerate()
-        .map(|(id, s)| bake_shape(params, *s, id as u64, &dirs, &stages))
-        .collect::<Result<_, _>>()?;
+    let work: Vec<ShapeWork> =
+        shapes.par_iter().map(|(id, s)| bake_shape(params, *s, *id, &dirs, &stages)).collect::<Result<_, _>>()?;
     let table = work.iter().find_map(|w| w.table.clone());
     let red = work.iter().find_map(|w| w.red.clone());
     let (Some(table_3_2), Some(enrichment)) = (table, red) else {

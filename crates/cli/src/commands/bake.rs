@@ -257,7 +257,26 @@ fn run_mrt(
     let Some(m) = &cfg.config.mrt else {
         return Err(CliError::internal(anyhow!("mrt stage selected but not configured")));
     };
-    let o = super::mrt::DictOptions::from_stage(m);
+    let mut o = super::mrt::DictOptions::from_stage(m);
+    // only the shapes the level uses, when the level is the only reader of the dictionary
+    let drt_example = cfg.config.drt.as_ref().is_some_and(|d| d.example.is_some());
+    if let (Some(l), false, true) = (&cfg.config.mrt_level, drt_example, m.level_shapes_only.unwrap_or(true)) {
+        let kind = o.dictionary.as_deref().and_then(penumbra_transport::shape::DictionaryKind::parse);
+        let file = match &l.level {
+            Some(p) => {
+                Some(penumbra_config::level::load_level(&cfg.resolve(p)).map_err(|e| CliError::input(anyhow!("{e}")))?)
+            }
+            None => None,
+        };
+        let maze = l.maze.map(|n| (n as usize, l.seed.unwrap_or(0)));
+        let names = super::mrt::level_shapes(
+            kind.unwrap_or(penumbra_transport::shape::DictionaryKind::Cube2d),
+            file.as_ref(),
+            maze,
+        )
+        .map_err(|e| CliError::input(anyhow!("{}: [mrt_level]: {e}", cfg.path.display())))?;
+        o.only = Some(names);
+    }
     let p = super::mrt::params(&o)
         .map_err(|e| CliError { code: e.code, error: e.error.context(format!("{}: [mrt]", cfg.path.display())) })?;
     let output = out_dir.join(m.output_name());

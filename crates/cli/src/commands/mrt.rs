@@ -140,6 +140,10 @@ pub struct MrtDictArgs {
     /// Skip the interface operators (a dictionary that cannot light levels; faster).
     #[arg(long)]
     pub no_interfaces: bool,
+    /// Bake only the shapes this level file (.toml) uses, and the closed cube (Table 3.2 and
+    /// App. A are measured on it): the interfaces follow the shapes.
+    #[arg(long, value_name = "LEVEL.toml")]
+    pub for_level: Option<PathBuf>,
     /// Reduced lightfield modes k_rlf (thesis: 128).
     #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=512))]
     pub k_rlf: u32,
@@ -245,6 +249,8 @@ pub struct DictOptions {
     pub response_rays: Option<u32>,
     /// Interface vector and volume response on/off.
     pub interface_vectors: Option<bool>,
+    /// Only these shapes (and the closed cube); `None`: all.
+    pub only: Option<Vec<String>>,
 }
 
 impl DictOptions {
@@ -279,8 +285,32 @@ impl DictOptions {
             interface_enrich: m.interface_enrich,
             response_rays: m.response_rays,
             interface_vectors: m.interface_vectors,
+            only: None,
         }
     }
+}
+
+/// The dictionary shapes a level uses, by name, in first-use order: a level file's blocks, or
+/// the blocks of a generated maze (resolved against the whole `dictionary`, as `mrt level`
+/// resolves it).
+pub fn level_shapes(
+    dictionary: DictionaryKind,
+    file: Option<&penumbra_config::level::LevelFile>,
+    maze: Option<(usize, u64)>,
+) -> Result<Vec<String>, String> {
+    let mut names: Vec<String> = match (file, maze) {
+        (Some(f), _) => f.blocks.iter().map(|b| b.shape.clone()).collect(),
+        (None, Some((n, seed))) => {
+            let shapes = dictionary.shapes();
+            let missing: Vec<u8> = shapes.iter().map(|s| s.missing).collect();
+            let level = penumbra_transport::level::maze(n, seed, &missing).map_err(|e| format!("maze {n}: {e}"))?;
+            level.blocks.iter().map(|b| shapes[b.shape].name.to_string()).collect()
+        }
+        (None, None) => return Err("no level".into()),
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    names.retain(|n| seen.insert(n.clone()));
+    Ok(names)
 }
 
 /// Builds and validates the parameters (defaults filled in).
@@ -330,6 +360,7 @@ pub fn params(o: &DictOptions) -> Result<DictParams, CliError> {
     if let Some(x) = o.interface_vectors {
         p.interface_vectors = x;
     }
+    p.only = o.only.clone();
     set(&mut p.interface.k_rlf, o.k_rlf);
     set(&mut p.interface.k_r, o.k_r);
     set(&mut p.interface.grid.spatial, o.lf_spatial);
@@ -369,7 +400,9 @@ pub fn bake_to(p: &DictParams, output: &Path, mode: ProgressMode) -> Result<Dict
     let asset = to_asset(&b, Some(&cache_key(p))).map_err(CliError::internal)?;
     ensure_parent(output)?;
     let bytes = asset.write_atomic(output).with_context(|| format!("cannot write {}", output.display()))?;
-    let metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+    let mut metrics = serde_json::to_value(&b.metrics).map_err(CliError::internal)?;
+    let baked: Vec<&str> = p.shapes().iter().map(|(_, s)| s.name).collect();
+    metrics["shapes_baked"] = json!(baked);
     Ok(DictOutcome { metrics, bytes, seconds: start.elapsed().as_secs_f64(), interface_seconds: b.interface_seconds })
 }
 
@@ -427,8 +460,24 @@ fn run_dict(a: &MrtDictArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         interface_enrich: Some(a.interface_enrich),
         response_rays: Some(a.response_rays),
         interface_vectors: Some(!a.no_interface_vectors),
+        only: match &a.for_level {
+            Some(path) => {
+                let f =
+                    penumbra_config::level::load_level(path).map_err(|e| CliError::input(anyhow::anyhow!("{e}")))?;
+                let kind = match a.dictionary {
+                    DictionaryArg::Cube2d => DictionaryKind::Cube2d,
+                    DictionaryArg::ClosedCube => DictionaryKind::ClosedCube,
+                };
+                let names = level_shapes(kind, Some(&f), None).map_err(|e| CliError::input(anyhow::anyhow!(e)))?;
+                Some(names)
+            }
+            None => None,
+        },
     };
-    let p = params(&o)?;
+    let p = params(&o).map_err(|e| match &a.for_level {
+        Some(path) => CliError { code: e.code, error: e.error.context(format!("--for-level {}", path.display())) },
+        None => e,
+    })?;
     let out = bake_to(&p, &a.output, mode)?;
     let mut v = out.metrics.clone();
     if let Some(obj) = v.as_object_mut() {
