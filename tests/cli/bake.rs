@@ -277,3 +277,88 @@ fn a_shared_cache_dir_serves_equal_keys_and_read_only_never_writes() {
     let (code, _, stderr) = run(penumbra().arg("bake").arg(&a).arg("--cache-read-only"));
     assert_eq!(code, 2, "{stderr}");
 }
+
+/// A config with every independent kind of work item and the `mrt` → `mrt_level` chain.
+const SHARDED: &str = "[tables]\norder = 3\ntheta_samples = 32\n\
+[[spheres]]\nmesh = \"CHARACTER\"\ncount = 6\ngrid = 16\n\
+[[fiv]]\nmesh = \"builtin:torus\"\nenv = \"builtin:area-lights\"\nsamples = [8, 5, 4]\ncube_size = 8\n\
+[mrt]\nface_res = 4\nrays = 512\nkd = 24\nkb = 12\nvector_rays = 64\nvolume_res = 2\nprobe_rays = 64\ntest_lights = 3\n\
+reference_rays = 128\nlf_spatial = 4\nlf_dir = 6\nlf_super = 2\nk_rlf = 24\nk_r = 8\nresponse_rays = 64\n\
+[mrt_level]\nmaze = 3\nseed = 1\n";
+
+#[test]
+fn sharded_bakes_in_separate_directories_merge_to_the_single_runs_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let character = concat!(env!("CARGO_MANIFEST_DIR"), "/bake-configs/assets/character.obj");
+    let cfg =
+        write_config(dir.path(), &format!("output_dir = \"single\"\n{}", SHARDED.replace("CHARACTER", character)));
+    let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+    assert_eq!(code, 0, "{stderr}");
+    // N local processes, as a batch system's array job runs them
+    let shard_dir = |k: usize| dir.path().join(format!("s{k}"));
+    for k in 0..3 {
+        let (code, _, stderr) = run(penumbra()
+            .arg("bake")
+            .arg(&cfg)
+            .args(["--shard", &format!("{k}/3"), "--output-dir"])
+            .arg(shard_dir(k)));
+        assert_eq!(code, 0, "{stderr}");
+    }
+    // the level's stage runs beside its dictionary's
+    let report = |k: usize| -> Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(shard_dir(k).join(format!("report.shard-{k}-of-3.json"))).unwrap(),
+        )
+        .unwrap()
+    };
+    let ran = |k: usize, name: &str| {
+        report(k)["stages"].as_array().unwrap().iter().any(|s| s["name"] == name && s["status"] == "baked")
+    };
+    let k_mrt = (0..3).find(|&k| ran(k, "mrt")).unwrap();
+    assert!(ran(k_mrt, "mrt_level"));
+    let merged = dir.path().join("merged");
+    let (code, stdout, stderr) =
+        run(penumbra().args(["bake", "merge"]).args((0..3).map(shard_dir)).arg("-o").arg(&merged).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let m: Value = serde_json::from_str(&stdout).unwrap();
+    let single: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("single/report.json")).unwrap()).unwrap();
+    let names = |v: &Value| -> Vec<(Value, Value)> {
+        v["stages"].as_array().unwrap().iter().map(|s| (s["name"].clone(), s["status"].clone())).collect()
+    };
+    assert_eq!(names(&m), names(&single));
+    assert_eq!(m["shard"], Value::Null);
+    // the same files, byte for byte
+    let list = |d: &std::path::Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+            .filter(|n| !n.starts_with("report."))
+            .collect();
+        v.sort();
+        v
+    };
+    let files = list(&dir.path().join("single"));
+    assert_eq!(files.len(), 5, "{files:?}");
+    assert_eq!(list(&merged), files);
+    for f in &files {
+        assert!(
+            std::fs::read(merged.join(f)).unwrap() == std::fs::read(dir.path().join("single").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    // a missing shard, a shard given twice: exit 2, named
+    let (code, _, stderr) =
+        run(penumbra().args(["bake", "merge"]).arg(shard_dir(0)).arg(shard_dir(1)).arg("-o").arg(dir.path().join("x")));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("shard 2/3 is missing"), "{stderr}");
+    let (code, _, stderr) = run(penumbra()
+        .args(["bake", "merge"])
+        .arg(shard_dir(0))
+        .arg(shard_dir(0))
+        .arg(shard_dir(1))
+        .arg("-o")
+        .arg(dir.path().join("x")));
+    assert_eq!(code, 2);
+    assert!(stderr.contains("given twice"), "{stderr}");
+}

@@ -118,9 +118,18 @@ pub struct InspectArgs {
 
 /// `penumbra bake`.
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct BakeArgs {
+    /// `merge`: join the output directories of sharded runs.
+    #[command(subcommand)]
+    pub command: Option<BakeCommand>,
     /// Bake config (TOML).
-    pub config: PathBuf,
+    #[arg(required = true)]
+    pub config: Option<PathBuf>,
+    /// Write the outputs and the report here instead of the config's `output_dir` (one
+    /// directory per shard on a batch system; join them with `penumbra bake merge`).
+    #[arg(long, value_name = "DIR")]
+    pub output_dir: Option<PathBuf>,
     /// Run only this stage (e.g. `tables`).
     #[arg(long, value_name = "STAGE")]
     pub only: Option<String>,
@@ -140,6 +149,29 @@ pub struct BakeArgs {
     #[arg(long, requires = "cache_dir")]
     pub cache_read_only: bool,
     /// Print the report as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `penumbra bake` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum BakeCommand {
+    /// Join the output directories of `penumbra bake CONFIG --shard K/N --output-dir DIR_K`
+    /// (all N of them) into what one unsharded run writes: the same assets, byte for byte, and
+    /// one `report.json`.
+    Merge(BakeMergeArgs),
+}
+
+/// `penumbra bake merge`.
+#[derive(Debug, Args)]
+pub struct BakeMergeArgs {
+    /// The shards' output directories, each holding one `report.shard-K-of-N.json`.
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// The merged output directory.
+    #[arg(short = 'o', long)]
+    pub output: PathBuf,
+    /// Print the merged report as JSON on stdout.
     #[arg(long)]
     pub json: bool,
 }

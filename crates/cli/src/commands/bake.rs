@@ -14,7 +14,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Stage names in execution order. Every configured entry of a stage is one work item;
-/// `--shard K/N` runs the items whose index (in this order) is K mod N.
+/// `--shard K/N` runs the items whose index (in this order) is K mod N; `mrt_level` and `drt`
+/// take the index of `mrt`, whose dictionary they read.
 pub const STAGES: &[&str] = &["tables", "spheres", "fiv", "mrt", "mrt_level", "drt", "vo"];
 
 /// Parses `K/N` (0 ≤ K < N).
@@ -519,8 +520,12 @@ fn run_gate(
 /// Runs `penumbra bake`.
 #[allow(clippy::print_stderr)]
 pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    if let Some(crate::args::BakeCommand::Merge(m)) = &a.command {
+        return super::bake_merge::run(m);
+    }
     let start = Instant::now();
-    let cfg = penumbra_config::load(&a.config).map_err(CliError::input)?;
+    let config = a.config.as_deref().ok_or_else(|| CliError::input(anyhow!("give a bake config")))?;
+    let cfg = penumbra_config::load(config).map_err(CliError::input)?;
     // work items: (stage, entry index)
     let mut items: Vec<(&str, usize)> = Vec::new();
     if cfg.config.tables.is_some() {
@@ -546,11 +551,18 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             return Err(CliError::input(anyhow!("--only {only:?}: unknown stage (stages: {})", STAGES.join(", "))));
         }
         if !configured.contains(&only.as_str()) {
-            return Err(CliError::input(anyhow!("--only {only:?}: {} has no [{only}] stage", a.config.display())));
+            return Err(CliError::input(anyhow!("--only {only:?}: {} has no [{only}] stage", config.display())));
         }
     }
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
-    let out_dir: PathBuf = cfg.output_dir();
+    let out_dir: PathBuf = a.output_dir.clone().unwrap_or_else(|| cfg.output_dir());
+    // a stage that reads another's output runs in the same shard: `mrt_level` and `drt` go
+    // with `mrt` (their dictionary)
+    let head = items.iter().position(|(n, _)| *n == "mrt");
+    let slot = |item: usize| match (items[item].0, head) {
+        ("mrt_level" | "drt", Some(h)) => h,
+        _ => item,
+    };
     std::fs::create_dir_all(&out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
 
@@ -565,7 +577,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             continue;
         }
         if let Some((k, n)) = shard {
-            if item % n != k {
+            if slot(item) % n != k {
                 stages.push(skip("skipped-by-shard"));
                 continue;
             }
@@ -609,7 +621,7 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         stages.push(r.value);
     }
     let report = json!({
-        "config": a.config.display().to_string(),
+        "config": config.display().to_string(),
         "output_dir": out_dir.display().to_string(),
         "shard": a.shard,
         "stages": stages,

@@ -2,6 +2,7 @@
 
 pub mod bake;
 pub mod bake_cache;
+pub mod bake_merge;
 pub mod drt;
 pub mod fiv;
 pub mod floor_view;
