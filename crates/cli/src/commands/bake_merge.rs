@@ -124,7 +124,7 @@ pub fn run(a: &BakeMergeArgs) -> Result<ExitCode, CliError> {
     }
     for (name, src) in &files {
         let bytes = std::fs::read(src).with_context(|| format!("cannot read {}", src.display()))?;
-        penumbra_asset::write_file_atomic(&a.output.join(name), &bytes)
+        penumbra_asset::write_file_atomic(a.output.join(name), &bytes)
             .with_context(|| format!("cannot write {}", a.output.join(name).display()))?;
     }
     // the report: each stage from the shard that ran it
