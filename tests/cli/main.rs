@@ -18,6 +18,7 @@ mod runtime;
 mod shadows;
 mod shadows_extremes;
 mod spheres;
+mod sweeps;
 mod tables;
 mod verify_shadows;
 mod vo;

@@ -537,4 +537,10 @@ pub enum SweepCommand {
     Shadows(crate::commands::sweep_shadows::SweepShadowsArgs),
     /// Sphere-set fits over sphere count × grid × method (union ratio and E against bake time).
     Spheres(crate::commands::sweep_spheres::SweepSpheresArgs),
+    /// SH tables over SH order and θ samples: cap-table error against the exact functions,
+    /// bake seconds and bytes.
+    Tables(crate::commands::sweep_tables::SweepTablesArgs),
+    /// FIV over shell samples, cube size and shell radii: shadow error against one shared
+    /// ray-traced reference, bake seconds, runtime cost and bytes.
+    Fiv(crate::commands::sweep_fiv::SweepFivArgs),
 }

@@ -347,14 +347,42 @@ pub fn bake_many(
     let occ =
         Occluder::new(mesh.data.clone()).map_err(|e| CliError::input(anyhow!("occluder mesh {}: {e}", first.mesh)))?;
     let lightings: Vec<Lighting> = envs.iter().map(|e| Lighting::new(e.data.clone())).collect();
-    let refs: Vec<&Lighting> = lightings.iter().collect();
+    let env_refs: Vec<&Input<CubeMap>> = envs.iter().collect();
+    let light_refs: Vec<&Lighting> = lightings.iter().collect();
+    let mut out = bake_prepared(jobs, shard, outputs, mode, &keys, &mesh, &occ, &env_refs, &light_refs)?;
+    let seconds = start.elapsed().as_secs_f64();
+    for o in &mut out {
+        o.seconds = seconds;
+    }
+    Ok(out)
+}
+
+/// The bake and the writes of [`bake_many`] from inputs already loaded (`keys[e]`,
+/// `envs[e]`, `lightings[e]` for `jobs[e]`; `occ` built from `mesh`), so a sweep loads them
+/// once. `seconds` is this call's wall time (visibility pass and writes) in every outcome.
+pub fn bake_prepared(
+    jobs: &[FivJob],
+    shard: Shard,
+    outputs: &[PathBuf],
+    mode: ProgressMode,
+    keys: &[String],
+    mesh: &Input<TriMesh>,
+    occ: &Occluder,
+    envs: &[&Input<CubeMap>],
+    lightings: &[&Lighting],
+) -> Result<Vec<FivOutcome>, CliError> {
+    let start = Instant::now();
+    let Some(first) = jobs.first() else {
+        return Err(CliError::input(anyhow!("no environment to bake")));
+    };
+    let refs = lightings;
     let reporter = Reporter::new("fiv", mode);
-    let bakes = penumbra_fiv::bake_multi(&occ, &refs, &first.params, shard, &reporter, penumbra_fiv::Culling::Auto)
+    let bakes = penumbra_fiv::bake_multi(occ, refs, &first.params, shard, &reporter, penumbra_fiv::Culling::Auto)
         .map_err(CliError::input)?;
     reporter.finish();
     let mut out = Vec::with_capacity(jobs.len());
     for ((((job, env), lighting), b), (key, output)) in
-        jobs.iter().zip(&envs).zip(&lightings).zip(&bakes).zip(keys.iter().zip(outputs))
+        jobs.iter().zip(envs).zip(lightings).zip(&bakes).zip(keys.iter().zip(outputs))
     {
         let mut inputs = json!({
             "mesh": {"name": mesh.name, "blake3": mesh.blake3, "vertices": mesh.data.positions.len(), "triangles": mesh.data.indices.len()},

@@ -12,8 +12,10 @@ pub mod mrt;
 pub mod mrt_level;
 pub mod spheres;
 pub mod sweep;
+pub mod sweep_fiv;
 pub mod sweep_shadows;
 pub mod sweep_spheres;
+pub mod sweep_tables;
 pub mod tables;
 pub mod verify_drt;
 pub mod verify_drt_vector;
@@ -51,6 +53,8 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),
             crate::args::SweepCommand::Spheres(v) => sweep_spheres::run(&v, cli.progress),
+            crate::args::SweepCommand::Tables(v) => sweep_tables::run(&v, cli.progress),
+            crate::args::SweepCommand::Fiv(v) => sweep_fiv::run(&v, cli.progress),
         },
         Command::Schema(a) => {
             let s = if a.level {

@@ -4,9 +4,9 @@
 use crate::exit::CliError;
 use crate::fsutil::write_atomic_text;
 use crate::svgplot::{Panel, pareto_front, render};
-use anyhow::anyhow;
+use anyhow::{Context, anyhow};
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Parses a comma-separated list (`--what` names the option in the error).
 pub fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>, CliError> {
@@ -50,4 +50,53 @@ pub fn write_outputs(dir: &Path, csv: &str, panels: &[Panel], summary: &Value) -
         &(serde_json::to_string_pretty(summary).map_err(CliError::internal)? + "\n"),
     )?;
     Ok(())
+}
+
+/// The output directory of a sweep, cleaned up unless the sweep finishes: dropped before
+/// [`OutputGuard::keep`], it removes every file registered with [`OutputGuard::file`], and the
+/// directory itself when this sweep created it. A sweep that
+/// fails half-way (a point whose bake rejects its parameters, a full disk) leaves no partial
+/// outputs.
+#[derive(Debug)]
+pub struct OutputGuard {
+    dir: PathBuf,
+    created: bool,
+    files: Vec<PathBuf>,
+    kept: bool,
+}
+
+impl OutputGuard {
+    /// Creates `dir` (and its parents) if needed.
+    pub fn create(dir: &Path) -> Result<Self, CliError> {
+        let created = !dir.exists();
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        Ok(Self { dir: dir.to_path_buf(), created, files: Vec::new(), kept: false })
+    }
+
+    /// `dir/name`, registered for removal if the sweep fails.
+    pub fn file(&mut self, name: &str) -> PathBuf {
+        let p = self.dir.join(name);
+        self.files.push(p.clone());
+        p
+    }
+
+    /// The sweep finished: keep everything.
+    pub fn keep(mut self) {
+        self.kept = true;
+    }
+}
+
+impl Drop for OutputGuard {
+    fn drop(&mut self) {
+        if self.kept {
+            return;
+        }
+        for f in &self.files {
+            let _ = std::fs::remove_file(f);
+        }
+        if self.created {
+            // only what this sweep made: the directory is removed only when now empty
+            let _ = std::fs::remove_dir(&self.dir);
+        }
+    }
 }

@@ -80,14 +80,89 @@ pub struct ReceiverSpec {
     pub seed: Option<u64>,
 }
 
-struct Receivers {
+/// A receiver set.
+pub(crate) struct Receivers {
     /// Runtime positions.
-    points: Vec<[f64; 3]>,
+    pub(crate) points: Vec<[f64; 3]>,
     /// Reference ray origins (surface receivers are lifted off the surface).
-    origins: Vec<[f64; 3]>,
-    normals: Vec<[f64; 3]>,
+    pub(crate) origins: Vec<[f64; 3]>,
+    /// Unit normals.
+    pub(crate) normals: Vec<[f64; 3]>,
     /// Plane grid resolution (for the image), or None for surface receivers.
-    grid: Option<usize>,
+    pub(crate) grid: Option<usize>,
+}
+
+/// The runtime's irradiance at every receiver into `out` (f32, one thread): plane receivers
+/// under all occluders, surface receivers self-shadowed by occluder 0 and shadowed by the rest.
+pub(crate) fn runtime_irradiance(
+    occs: &[PlacedOccluder<'_, '_>],
+    recv: &Receivers,
+    opts: ShadeOptions,
+    out: &mut Vec<[f64; 3]>,
+) {
+    let mut shader = FivShader::new();
+    out.clear();
+    for r in 0..recv.points.len() {
+        let p = recv.points[r].map(|v| v as f32);
+        let n = recv.normals[r].map(|v| v as f32);
+        let e = if recv.grid.is_some() {
+            shader.irradiance(occs, p, n, opts)
+        } else {
+            shader.self_shadowed(&occs[0], &occs[1..], p, n, opts)
+        };
+        out.push(e.map(|v| v as f64));
+    }
+}
+
+/// [`runtime_irradiance`] timed over repeated passes (at least 50 ms or 100 passes):
+/// the irradiance and the nanoseconds per receiver.
+pub(crate) fn timed_runtime(
+    occs: &[PlacedOccluder<'_, '_>],
+    recv: &Receivers,
+    opts: ShadeOptions,
+) -> (Vec<[f64; 3]>, f64) {
+    let mut rt = Vec::with_capacity(recv.points.len());
+    let t0 = Instant::now();
+    let mut passes = 0u32;
+    while passes == 0 || (t0.elapsed().as_secs_f64() < 0.05 && passes < 100) {
+        runtime_irradiance(occs, recv, opts, &mut rt);
+        passes += 1;
+    }
+    let ns = t0.elapsed().as_secs_f64() * 1e9 / (passes as f64 * recv.points.len().max(1) as f64);
+    (rt, ns)
+}
+
+/// The brute-force reference irradiance at every receiver, parallel over receivers.
+pub(crate) fn reference_irradiance(lighting: &Lighting, refs: &[Placed<'_>], recv: &Receivers) -> Vec<[f64; 3]> {
+    (0..recv.points.len())
+        .into_par_iter()
+        .map(|r| irradiance(lighting, refs, recv.origins[r], recv.normals[r]))
+        .collect()
+}
+
+/// Masks of plane receivers: inside an occluder (`inside(p)`; left out of every metric), and
+/// covered by an occluder seen straight along the normal (left out of `nrmse_visible`).
+/// Surface receivers are neither.
+pub(crate) fn receiver_masks(
+    recv: &Receivers,
+    inside: impl Fn([f64; 3]) -> bool + Sync,
+    refs: &[Placed<'_>],
+) -> (Vec<bool>, Vec<bool>) {
+    (0..recv.points.len())
+        .into_par_iter()
+        .map(|r| {
+            if recv.grid.is_none() {
+                return (false, false);
+            }
+            let p = recv.points[r];
+            let up = recv.normals[r];
+            let covered = refs.iter().any(|o| {
+                let q = [0, 1, 2].map(|k| p[k] - o.offset[k]);
+                o.bvh.any_hit(&Ray::new(q, up))
+            });
+            (inside(p), covered)
+        })
+        .unzip()
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -147,7 +222,7 @@ fn supersample(cube: &CubeMap, m: usize) -> CubeMap {
     CubeMap::from_texels(n, out).unwrap_or_else(|| cube.clone())
 }
 
-fn plane_receivers(
+pub(crate) fn plane_receivers(
     spec: &ReceiverSpec,
     distance: Option<f64>,
     up: UpAxis,
@@ -277,7 +352,7 @@ fn write_image(
 }
 
 /// NRMSE and max error of `rt` against `rf` over the receivers `keep` selects.
-fn metrics(rt: &[[f64; 3]], rf: &[[f64; 3]], keep: impl Fn(usize) -> bool) -> (f64, f64, usize) {
+pub(crate) fn metrics(rt: &[[f64; 3]], rf: &[[f64; 3]], keep: impl Fn(usize) -> bool) -> (f64, f64, usize) {
     let mut a = Vec::new();
     let mut b = Vec::new();
     for r in 0..rt.len() {
@@ -413,57 +488,25 @@ pub(crate) fn run_report(a: &VerifyFivArgs) -> Result<(ExitCode, Value), CliErro
         .zip(&centers)
         .map(|(&(f, _), c)| PlacedOccluder { table: &tables[f], center: c.map(|v| v as f32) })
         .collect();
-    let eval = |opts: ShadeOptions, out: &mut Vec<[f64; 3]>| {
-        let mut shader = FivShader::new();
-        out.clear();
-        for r in 0..count {
-            let p = recv.points[r].map(|v| v as f32);
-            let n = recv.normals[r].map(|v| v as f32);
-            let e = if recv.grid.is_some() {
-                shader.irradiance(&occs, p, n, opts)
-            } else {
-                shader.self_shadowed(&occs[0], &occs[1..], p, n, opts)
-            };
-            out.push(e.map(|v| v as f64));
-        }
-    };
+    let eval = |opts: ShadeOptions, out: &mut Vec<[f64; 3]>| runtime_irradiance(&occs, &recv, opts, out);
     let partial = match a.partial {
         PartialArg::None => Partial::None,
         PartialArg::Scale => Partial::Scale,
     };
     let opts = ShadeOptions { partial, overlap: !a.no_overlap };
-    let mut rt = Vec::with_capacity(count);
-    let t0 = Instant::now();
-    let mut passes = 0u32;
-    while passes == 0 || (t0.elapsed().as_secs_f64() < 0.05 && passes < 100) {
-        eval(opts, &mut rt);
-        passes += 1;
-    }
-    let ns_per_receiver = t0.elapsed().as_secs_f64() * 1e9 / (passes as f64 * count as f64);
+    let (rt, ns_per_receiver) = timed_runtime(&occs, &recv, opts);
 
     // reference, parallel over receivers
     let t1 = Instant::now();
-    let rf: Vec<[f64; 3]> =
-        (0..count).into_par_iter().map(|r| irradiance(&lighting, &refs, recv.origins[r], recv.normals[r])).collect();
+    let rf = reference_irradiance(&lighting, &refs, &recv);
     let reference_seconds = t1.elapsed().as_secs_f64();
 
     // masks: inside an occluder (left out), covered from straight above (not "visible")
-    let (inside, covered): (Vec<bool>, Vec<bool>) = (0..count)
-        .into_par_iter()
-        .map(|r| {
-            if recv.grid.is_none() {
-                return (false, false);
-            }
-            let p = recv.points[r];
-            let inside = placed.iter().any(|&(f, off)| windings[f].is_inside([0, 1, 2].map(|k| p[k] - off[k])));
-            let up = recv.normals[r];
-            let covered = refs.iter().any(|o| {
-                let q = [0, 1, 2].map(|k| p[k] - o.offset[k]);
-                o.bvh.any_hit(&Ray::new(q, up))
-            });
-            (inside, covered)
-        })
-        .unzip();
+    let (inside, covered) = receiver_masks(
+        &recv,
+        |p| placed.iter().any(|&(f, off)| windings[f].is_inside([0, 1, 2].map(|k| p[k] - off[k]))),
+        &refs,
+    );
     let (e_all, max_abs, n_all) = metrics(&rt, &rf, |r| !inside[r]);
     let (e_vis, _, n_vis) = metrics(&rt, &rf, |r| !inside[r] && !covered[r]);
     // receivers nearer to some occluder's centre than its innermost shell (the lookup clamps
