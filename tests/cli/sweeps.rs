@@ -178,3 +178,53 @@ fn sweep_fiv_bad_input_exits_2_and_writes_nothing() {
         assert!(!out.exists(), "{args:?} left {}", out.display());
     }
 }
+
+#[test]
+fn sweep_drt_reuses_the_rays_across_kc_to_a_standalone_bakes_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = crate::mrt_level::small_dict(dir.path());
+    let out = dir.path().join("sw");
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["sweep", "drt", "--example", "pillars", "--clutter-res", "4", "--rays", "32,256", "--kc", "2,5"])
+        .args(["--reference-rays", "256", "--dict"])
+        .arg(&d)
+        .arg("-o")
+        .arg(&out)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5);
+    assert_front(rows, "bake_seconds", "rel_error_mrt_drt", "pareto_seconds");
+    assert_front(rows, "bytes", "rel_error_mrt_drt", "pareto_bytes");
+    // the second rank of each ray count assembles from the first one's sums
+    let reused: Vec<bool> = rows.iter().map(|r| r["rays_reused"].as_bool().unwrap()).collect();
+    assert_eq!(reused, [false, true, false, true]);
+    // ... to the bytes `penumbra drt` writes for that point
+    let own = dir.path().join("own.drto");
+    let (code, _, stderr) = run(penumbra()
+        .args(["drt", "--example", "pillars", "--clutter-res", "4", "--rays", "256", "--kc", "5", "--dict"])
+        .arg(&d)
+        .arg("-o")
+        .arg(&own));
+    assert_eq!(code, 0, "{stderr}");
+    let swept = out.join(rows[3]["output"].as_str().unwrap());
+    assert!(std::fs::read(&own).unwrap() == std::fs::read(swept).unwrap());
+    // DRT beats MRT alone at every point, and more rays lower the scene error
+    for r in rows {
+        assert!(num(&r["rel_error_mrt_drt"]) < num(&r["rel_error_mrt"]), "{r}");
+    }
+    assert!(num(&rows[2]["rel_error_mrt_drt"]) < num(&rows[0]["rel_error_mrt_drt"]), "{v}");
+    // a bad knob: exit 2, nothing written
+    let bad = dir.path().join("bad");
+    let (code, _, stderr) = run(penumbra()
+        .args(["sweep", "drt", "--example", "pillars", "--kc", "2,0", "--dict"])
+        .arg(&d)
+        .arg("-o")
+        .arg(&bad));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("kc"), "{stderr}");
+    assert!(!bad.exists());
+}

@@ -543,4 +543,7 @@ pub enum SweepCommand {
     /// FIV over shell samples, cube size and shell radii: shadow error against one shared
     /// ray-traced reference, bake seconds, runtime cost and bytes.
     Fiv(crate::commands::sweep_fiv::SweepFivArgs),
+    /// DRT clutter operators over scene rays, clutter rays, neighbourhood and rank of C_b:
+    /// one-bounce error against one shared path-traced reference, bake seconds and bytes.
+    Drt(crate::commands::sweep_drt::SweepDrtArgs),
 }

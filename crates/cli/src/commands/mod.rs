@@ -12,6 +12,7 @@ pub mod mrt;
 pub mod mrt_level;
 pub mod spheres;
 pub mod sweep;
+pub mod sweep_drt;
 pub mod sweep_fiv;
 pub mod sweep_shadows;
 pub mod sweep_spheres;
@@ -55,6 +56,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
             crate::args::SweepCommand::Spheres(v) => sweep_spheres::run(&v, cli.progress),
             crate::args::SweepCommand::Tables(v) => sweep_tables::run(&v, cli.progress),
             crate::args::SweepCommand::Fiv(v) => sweep_fiv::run(&v, cli.progress),
+            crate::args::SweepCommand::Drt(v) => sweep_drt::run(&v, cli.progress),
         },
         Command::Schema(a) => {
             let s = if a.level {

@@ -77,7 +77,7 @@ fn parse_albedo(s: &str) -> Result<f64, String> {
 }
 
 /// `‖a − b‖ / ‖b‖` over the entries `keep` selects.
-fn rel(a: &[f64], b: &[f64], keep: &[bool]) -> f64 {
+pub(crate) fn rel(a: &[f64], b: &[f64], keep: &[bool]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
     for ((x, y), &k) in a.iter().zip(b).zip(keep) {
         if k {
@@ -100,7 +100,16 @@ fn norm_ratio(a: &[f64], b: &[f64], keep: &[bool]) -> f64 {
 }
 
 fn lights(a: &VerifyDrtArgs, sc: &DrtScene, geo: &LevelGeometry<'_>) -> Result<Vec<PointLight>, CliError> {
-    match (&a.lights, &sc.example_lights) {
+    scene_lights(a.lights.as_deref(), sc, geo)
+}
+
+/// The lights of a comparison: the file's, else the example's, else the level's defaults.
+pub(crate) fn scene_lights(
+    file: Option<&std::path::Path>,
+    sc: &DrtScene,
+    geo: &LevelGeometry<'_>,
+) -> Result<Vec<PointLight>, CliError> {
+    match (file, &sc.example_lights) {
         (Some(p), _) => load_point_lights(p, geo),
         (None, Some(l)) => Ok(l.clone()),
         (None, None) => Ok(default_lights(&sc.level)),

@@ -1,0 +1,394 @@
+//! `penumbra sweep drt`: the speed/quality trade of the DRT clutter operators over scene rays,
+//! clutter rays, neighbourhood and the rank of `C_b`. One bake per grid point with `penumbra
+//! drt`'s own bake (points that differ only in the rank of `C_b` trace their rays once and
+//! assemble from the kept sums, to the same bytes), each measured as `verify drt` measures it (one bounce, the same runtime)
+//! against **one** path-traced reference of the scene texels and clutter texels, traced once
+//! for the whole sweep (the receivers and lights do not depend on the operators). Writes
+//! `sweep.csv`, `sweep.json` and `sweep.svg` (error against bake seconds and against bytes,
+//! Pareto fronts marked).
+
+use crate::commands::drt::{DrtSceneArgs, cache_key, load_scene};
+use crate::commands::mrt_level::bake as bake_level;
+use crate::commands::print_json;
+use crate::commands::sweep::{OutputGuard, csv_text, parse_list, with_front, write_outputs};
+use crate::commands::verify_drt::{rel, scene_lights};
+use crate::commands::verify_mrt::median_ms;
+use crate::exit::{CliError, ExitCode};
+use crate::progress::{ProgressMode, Reporter};
+use crate::svgplot::{Panel, Series};
+use anyhow::{Context, anyhow};
+use clap::Args;
+use penumbra_asset::{AssetFile, OwnedAsset};
+use penumbra_math::progress::NoProgress;
+use penumbra_math::progress::Progress;
+use penumbra_runtime::drt::{DrtOperators, DrtRuntime, Paths};
+use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
+use penumbra_transport::drt::{DrtParams, Scene, bake_incremental, bake_with_state};
+use penumbra_transport::drt_asset::to_asset;
+use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
+use penumbra_transport::drt_state::DrtState;
+use penumbra_transport::level_reference::{LevelGeometry, level_texels};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// `penumbra sweep drt`.
+#[derive(Debug, Args)]
+pub struct SweepDrtArgs {
+    /// The scene (as `penumbra drt` takes it).
+    #[command(flatten)]
+    pub scene: DrtSceneArgs,
+    /// Rays per scene texel (comma-separated, 16..=1048576).
+    #[arg(long, default_value = "256,1024")]
+    pub rays: String,
+    /// Rays per clutter texel (comma-separated; default: each point's --rays).
+    #[arg(long)]
+    pub clutter_rays: Option<String>,
+    /// Neighbourhoods in block hops (comma-separated, 0..=16).
+    #[arg(long, default_value = "1")]
+    pub neighborhood: String,
+    /// Ranks of C_b (comma-separated, 1..=256).
+    #[arg(long, default_value = "5")]
+    pub kc: String,
+    /// Point lights (TOML), as `verify drt --lights`.
+    #[arg(long)]
+    pub lights: Option<PathBuf>,
+    /// Wall albedo of the comparison.
+    #[arg(long, default_value_t = 0.5)]
+    pub albedo: f64,
+    /// Reference rays per receiver.
+    #[arg(long = "reference-rays", default_value_t = 512, value_parser = clap::value_parser!(u32).range(4..=1_048_576))]
+    pub reference_rays: u32,
+    /// Seed of the reference.
+    #[arg(long = "ref-seed", default_value_t = 0)]
+    pub ref_seed: u64,
+    /// Depth limit of the level operators (when the level is not a baked asset).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub max_depth: u32,
+    /// Output directory (assets, sweep.csv, sweep.json, sweep.svg).
+    #[arg(short = 'o', long)]
+    pub output: PathBuf,
+    /// Print the sweep as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `penumbra sweep drt`.
+#[allow(clippy::print_stderr)]
+pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    let start = Instant::now();
+    let rays: Vec<usize> = parse_list(&a.rays, "rays")?;
+    let crays: Option<Vec<usize>> = a.clutter_rays.as_deref().map(|s| parse_list(s, "clutter-rays")).transpose()?;
+    let hoods: Vec<usize> = parse_list(&a.neighborhood, "neighborhood")?;
+    let kcs: Vec<usize> = parse_list(&a.kc, "kc")?;
+    if !(a.albedo > 0.0 && a.albedo <= 1.0) {
+        return Err(CliError::input(anyhow!("--albedo {} is out of range (allowed: 0 < A <= 1)", a.albedo)));
+    }
+    // every point's parameters, checked before anything is baked or written
+    let mut points: Vec<DrtParams> = Vec::new();
+    for &r in &rays {
+        for &cr in crays.as_deref().unwrap_or(&[0]) {
+            for &d in &hoods {
+                for &k in &kcs {
+                    let p = DrtParams {
+                        rays: r,
+                        clutter_rays: if cr == 0 { r } else { cr },
+                        neighborhood: d,
+                        k_c: k,
+                        clutter_res: a.scene.clutter_res as usize,
+                        clutter_basis_res: a.scene.clutter_basis_res as usize,
+                        ..DrtParams::default()
+                    };
+                    p.validate().map_err(|e| CliError::input(anyhow!("sweep point: {e}")))?;
+                    points.push(p);
+                }
+            }
+        }
+    }
+    let sc = load_scene(&a.scene)?;
+    let mut guard = OutputGuard::create(&a.output)?;
+
+    // what no point changes: the runtime's dictionary and level, the receivers, the lights,
+    // the direct light and the path-traced reference
+    let level_bytes = match &sc.level_asset {
+        Some((b, _)) => b.clone(),
+        None => bake_level(&sc.level, &sc.links, &sc.ops, a.max_depth as usize, None)?.1,
+    };
+    let dict_file = AssetFile::open(a.scene.dict_path())
+        .with_context(|| format!("cannot open {}", a.scene.dict_path().display()))?;
+    let dict_asset = dict_file.asset();
+    let level_asset = OwnedAsset::parse(&level_bytes).map_err(CliError::internal)?;
+    let la = level_asset.asset();
+    let geo = LevelGeometry { level: &sc.level, links: &sc.links, missing: &sc.ops.missing };
+    let scene = Scene::new(geo.clone(), &sc.clutter, &sc.dict);
+    let lights = scene_lights(a.lights.as_deref(), &sc, &geo)?;
+    let tex = level_texels(&sc.level, &sc.ops.missing, sc.ops.face_res);
+    let n = tex.texels.len();
+    let mut recv: Vec<Receiver> =
+        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn, horizon: None }).collect();
+    let mut clutter_ok = Vec::new();
+    for t in &sc.clutter.texels {
+        let o: [f64; 3] = core::array::from_fn(|k| t.position[k] + 1e-7 * t.normal[k]);
+        let b = geo.block_of(o);
+        clutter_ok.push(b.is_some());
+        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal, horizon: None });
+    }
+    let m = sc.clutter.texels.len();
+    let l_d: Vec<f32> = recv[..n].iter().map(|r| direct(&scene, r.block, r.point, r.normal, &lights) as f32).collect();
+    let l_dc: Vec<f32> = recv[n..]
+        .iter()
+        .zip(&clutter_ok)
+        .map(|(r, &ok)| if ok { direct(&scene, r.block, r.point, r.normal, &lights) as f32 } else { 0.0 })
+        .collect();
+    let rep = Reporter::new("sweep drt", mode);
+    let done = AtomicU64::new(0);
+    let total = recv.len() as u64;
+    let t_ref = Instant::now();
+    let r = reference(
+        &scene,
+        &recv,
+        &lights,
+        Albedo { walls: a.albedo, channel: 0 },
+        a.reference_rays as usize,
+        1,
+        a.ref_seed,
+        &|k| {
+            let v = done.fetch_add(k, Ordering::Relaxed) + k;
+            rep.update("reference", v.min(total), total);
+        },
+    );
+    rep.finish();
+    let reference_seconds = t_ref.elapsed().as_secs_f64();
+    let (r1, rc1) = (&r.one_bounce[..n], &r.one_bounce[n..n + m]);
+    let scale = (a.albedo / sc.ops.albedo) as f32;
+
+    // MRT alone: the same for every point
+    let rd = MrtDictionary::from_asset(&dict_asset).map_err(|e| CliError::input(anyhow!("{e}")))?;
+    let rl = MrtLevel::from_asset(&la, &rd).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+    let mut mrt = MrtRuntime::new(rd, rl);
+    let mut mrt_one = vec![0.0f32; n];
+    mrt.indirect(&l_d, &mut mrt_one, true);
+    let mrt_one: Vec<f64> = mrt_one.iter().map(|&x| f64::from(x) * f64::from(scale)).collect();
+
+    let mut rows: Vec<Value> = Vec::new();
+    // points that differ only in k_c share their rays: the first traces and keeps the sums
+    // (`drt --state`'s), the others assemble from them (an incremental re-bake with nothing
+    // moved: the bytes of a full bake)
+    // (rays key, sums, seconds of the trace alone)
+    let mut traced: Vec<((usize, usize, usize), DrtState, f64)> = Vec::new();
+    let inputs = sc.inputs();
+    let assemble = |st: &DrtState, p: &DrtParams| -> Result<(penumbra_transport::drt::DrtBake, f64), CliError> {
+        let t = Instant::now();
+        let mut st = st.clone();
+        let (b, _) = bake_incremental(
+            &sc.level,
+            &sc.links,
+            &sc.dict,
+            &sc.clutter,
+            &sc.clutter,
+            &[],
+            &mut st,
+            p,
+            None,
+            &NoProgress,
+        )
+        .map_err(|e| CliError::input(anyhow!("{e}")))?;
+        Ok((b, t.elapsed().as_secs_f64()))
+    };
+    for (i, p) in points.iter().enumerate() {
+        let name = format!("drt-r{}-cr{}-d{}-kc{}.drto", p.rays, p.clutter_rays, p.neighborhood, p.k_c);
+        let t0 = Instant::now();
+        let rays_key = (p.rays, p.clutter_rays, p.neighborhood);
+        // `bake_seconds`: what a standalone bake of the point costs (its rays' trace and its
+        // own assembly), also for a point that reused another's rays; `spent_seconds`: what
+        // this sweep spent on it
+        let (b, reused, bake_seconds) = match traced.iter().find(|(k, _, _)| *k == rays_key) {
+            Some((_, st, trace)) => {
+                let (b, asm) = assemble(st, p)?;
+                (b, true, trace + asm)
+            }
+            None => {
+                let (b, st) = bake_with_state(
+                    &sc.level,
+                    &sc.links,
+                    &sc.dict,
+                    &sc.clutter,
+                    p,
+                    String::new(),
+                    Vec::new(),
+                    &NoProgress,
+                )
+                .map_err(|e| CliError::input(anyhow!("{e}")))?;
+                let total = t0.elapsed().as_secs_f64();
+                // the assembly's share, timed once more, so that the trace alone is known
+                let (_, asm) = assemble(&st, p)?;
+                traced.push((rays_key, st, (total - asm).max(0.0)));
+                (b, false, total)
+            }
+        };
+        let asset = to_asset(&b, &sc.clutter, &inputs, Some(&cache_key(&sc, p)), None).map_err(CliError::internal)?;
+        let bytes = asset.to_bytes().map_err(CliError::internal)?;
+        let spent_seconds = t0.elapsed().as_secs_f64();
+        let path = guard.file(&name);
+        penumbra_asset::write_file_atomic(&path, &bytes).with_context(|| format!("cannot write {}", path.display()))?;
+        let asset = OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
+        let rd = MrtDictionary::from_asset(&dict_asset).map_err(|e| CliError::input(anyhow!("{e}")))?;
+        let rl = MrtLevel::from_asset(&la, &rd).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+        let ops = DrtOperators::from_asset(&asset.asset(), &rd, &rl)
+            .map_err(|e| CliError::input(anyhow!("DRT operators: {e}")))?;
+        let mut mrt = MrtRuntime::new(rd, rl);
+        let mut drt = DrtRuntime::new(ops, &mrt);
+        let (mut s, mut c) = (vec![0.0f32; n], vec![0.0f32; m]);
+        drt.one_bounce(&mut mrt, &l_d, &l_dc, 0, scale, Paths::ALL, &mut s, &mut c);
+        let ms_runtime = median_ms(11, || drt.one_bounce(&mut mrt, &l_d, &l_dc, 0, scale, Paths::ALL, &mut s, &mut c));
+        // scene texels inside clutter are not seen: left out, as `verify drt` does
+        let mut keep = vec![true; n];
+        let ops = drt.operators();
+        for rc in ops.receivers.chunks_exact(3) {
+            let (blk, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
+            for t in 0..cnt {
+                if ops.inpaint_mask[off + t] != 0 {
+                    keep[tex.offsets[blk] + t] = false;
+                }
+            }
+        }
+        let to64 = |v: &[f32]| -> Vec<f64> { v.iter().map(|&x| f64::from(x)).collect() };
+        let (s, c) = (to64(&s), to64(&c));
+        rows.push(json!({
+            "rays": p.rays,
+            "clutter_rays": p.clutter_rays,
+            "neighborhood": p.neighborhood,
+            "kc": p.k_c,
+            "bake_seconds": bake_seconds,
+            "spent_seconds": spent_seconds,
+            "rays_traced": b.metrics.rays_traced,
+            "rays_reused": reused,
+            "bytes": bytes.len(),
+            "ms_runtime": ms_runtime,
+            "rel_error_mrt": rel(&mrt_one, r1, &keep),
+            "rel_error_mrt_drt": rel(&s, r1, &keep),
+            "rel_error_clutter_cb": rel(&c, rc1, &clutter_ok),
+            "output": name,
+        }));
+        if !a.json {
+            eprintln!(
+                "[{}/{}] rays {} clutter rays {} D {} kc {}: MRT + DRT {:.4} (MRT {:.4}), C_b {:.4}, {:.2} s, {} bytes",
+                i + 1,
+                points.len(),
+                p.rays,
+                p.clutter_rays,
+                p.neighborhood,
+                p.k_c,
+                rows[i]["rel_error_mrt_drt"].as_f64().unwrap_or(f64::NAN),
+                rows[i]["rel_error_mrt"].as_f64().unwrap_or(f64::NAN),
+                rows[i]["rel_error_clutter_cb"].as_f64().unwrap_or(f64::NAN),
+                bake_seconds,
+                bytes.len()
+            );
+        }
+    }
+    for (key, x) in [("pareto_seconds", "bake_seconds"), ("pareto_bytes", "bytes")] {
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .map(|r| (r[x].as_f64().unwrap_or(f64::NAN), r["rel_error_mrt_drt"].as_f64().unwrap_or(f64::NAN)))
+            .collect();
+        let on = crate::svgplot::pareto_front(&pts);
+        for (r, o) in rows.iter_mut().zip(on) {
+            r[key] = json!(o);
+        }
+    }
+    let cols = [
+        "rays",
+        "clutter_rays",
+        "neighborhood",
+        "kc",
+        "bake_seconds",
+        "spent_seconds",
+        "rays_traced",
+        "rays_reused",
+        "bytes",
+        "ms_runtime",
+        "rel_error_mrt",
+        "rel_error_mrt_drt",
+        "rel_error_clutter_cb",
+        "pareto_seconds",
+        "pareto_bytes",
+        "output",
+    ];
+    let csv = csv_text(&cols, &rows);
+    let series = |x: &str, y: &str| -> Vec<Series> {
+        let mut out = Vec::new();
+        for &d in &hoods {
+            for &k in &kcs {
+                let points = rows
+                    .iter()
+                    .filter(|r| r["neighborhood"] == d && r["kc"] == k)
+                    .map(|r| {
+                        (
+                            r[x].as_f64().unwrap_or(f64::NAN),
+                            r[y].as_f64().unwrap_or(f64::NAN),
+                            format!("{}/{}", r["rays"], r["clutter_rays"]),
+                        )
+                    })
+                    .collect();
+                out.push(Series { name: format!("D {d}, kc {k}"), points });
+            }
+        }
+        out
+    };
+    let panels = [
+        with_front(Panel {
+            title: format!("{}: MRT + DRT one-bounce error vs bake time", sc.what),
+            x_label: "bake seconds (labels: rays / clutter rays)".into(),
+            y_label: "rel_error_mrt_drt".into(),
+            series: series("bake_seconds", "rel_error_mrt_drt"),
+            front: Vec::new(),
+        }),
+        with_front(Panel {
+            title: "error vs bytes".into(),
+            x_label: "asset bytes".into(),
+            y_label: "rel_error_mrt_drt".into(),
+            series: series("bytes", "rel_error_mrt_drt"),
+            front: Vec::new(),
+        }),
+        with_front(Panel {
+            title: "clutter gather C_b error vs bake time".into(),
+            x_label: "bake seconds".into(),
+            y_label: "rel_error_clutter_cb".into(),
+            series: series("bake_seconds", "rel_error_clutter_cb"),
+            front: Vec::new(),
+        }),
+    ];
+    let max_point = rows.iter().filter_map(|r| r["bake_seconds"].as_f64()).fold(0.0f64, f64::max);
+    let seconds = start.elapsed().as_secs_f64();
+    let summary = json!({
+        "scene": sc.what,
+        "points": rows.len(),
+        "reference_rays": a.reference_rays,
+        "reference_seconds": reference_seconds,
+        "rel_error_mrt": rows.first().map_or(Value::Null, |r| r["rel_error_mrt"].clone()),
+        "rows": rows,
+        "seconds": seconds,
+        "cost_vs_most_expensive_point": if max_point > 0.0 { json!(seconds / max_point) } else { Value::Null },
+        "output": a.output.display().to_string(),
+    });
+    guard.file("sweep.csv");
+    guard.file("sweep.svg");
+    guard.file("sweep.json");
+    write_outputs(&a.output, &csv, &panels, &summary)?;
+    guard.keep();
+    if a.json {
+        print_json(&summary);
+    } else {
+        eprintln!(
+            "{} points in {:.2} s ({:.2}× the most expensive point; reference {:.2} s, traced once): {}",
+            points.len(),
+            seconds,
+            summary["cost_vs_most_expensive_point"].as_f64().unwrap_or(f64::NAN),
+            reference_seconds,
+            a.output.join("sweep.svg").display()
+        );
+    }
+    Ok(ExitCode::Ok)
+}
