@@ -740,8 +740,15 @@ pub fn run(a: &PlanArgs) -> Result<ExitCode, CliError> {
     }
     files.push((a.output.clone(), cfg_text));
     ensure_parent(&a.output)?;
-    for (path, text) in &files {
-        write_atomic_text(path, text)?;
+    // the config goes last; when a write fails, the files this run created are removed again
+    let existed: Vec<bool> = files.iter().map(|(f, _)| f.exists()).collect();
+    for (i, (path, text)) in files.iter().enumerate() {
+        if let Err(e) = write_atomic_text(path, text) {
+            for ((f, _), _) in files[..i].iter().zip(&existed).filter(|(_, existed)| !**existed) {
+                let _ = std::fs::remove_file(f);
+            }
+            return Err(e.into());
+        }
     }
     let mut report = p.report;
     report["config"] = json!(a.output.display().to_string());
@@ -774,4 +781,26 @@ pub fn run(a: &PlanArgs) -> Result<ExitCode, CliError> {
 /// TOML text of a planned file.
 fn toml_text<T: serde::Serialize>(v: &T) -> Result<String, CliError> {
     toml::to_string(v).map_err(|e| CliError::internal(anyhow!("cannot write TOML: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn role_options_parse_or_say_what_is_wrong() {
+        assert_eq!(parse_role("clutter=Prop_*"), Ok((Role::Clutter, "Prop_*".to_string())));
+        assert_eq!(parse_role("block=a=b"), Ok((Role::Block, "a=b".to_string())));
+        assert!(parse_role("occluder").unwrap_err().contains("no `=`"));
+        assert!(parse_role("lamp=x").unwrap_err().contains("unknown role \"lamp\""));
+        assert!(parse_role("character=").unwrap_err().contains("empty name pattern"));
+    }
+
+    #[test]
+    fn paths_are_written_relative_to_the_config() {
+        let r = |t: &str, b: &str| relative_to(Path::new(t), Path::new(b)).unwrap();
+        assert_eq!(r("/a/b/scene.glb", "/a/b"), "scene.glb");
+        assert_eq!(r("/a/b/scene.glb", "/a/c/d"), "../../b/scene.glb");
+        assert_eq!(r("/a/x/../b/s.glb", "/a/./b/out"), "../s.glb");
+    }
 }
