@@ -392,3 +392,41 @@ fn plan_presets_match_the_committed_preset_configs() {
         assert_eq!(p.mrt_level.as_ref().unwrap().max_depth, c.mrt_level.as_ref().unwrap().max_depth);
     }
 }
+
+fn demo_level() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("bake-configs/assets/demo-level.gltf")
+}
+
+#[test]
+fn committed_demo_level_is_what_the_generator_writes() {
+    let committed = std::fs::read_to_string(demo_level()).unwrap();
+    assert!(
+        committed == penumbra_geometry::demo_level::demo_level_gltf(),
+        "bake-configs/assets/demo-level.gltf is stale: run `cargo run -p penumbra-geometry --example demo_level > bake-configs/assets/demo-level.gltf`"
+    );
+}
+
+/// The README's example: the demo level with `--role clutter='Prop_*'` plans a corridor of
+/// three blocks (dead end, straight, dead end; two connections), three clutter pieces, the
+/// statue's FIV, the hero's sphere set, and lists the lamp as unassigned.
+#[test]
+fn plan_of_the_demo_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("demo-level.toml");
+    let (code, stdout, stderr) =
+        run(penumbra().arg("plan").arg(demo_level()).args(["--role", "clutter=Prop_*", "--json", "-o"]).arg(&cfg));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let c = penumbra_config::load(&cfg).unwrap().config;
+    assert_eq!(c.spheres.iter().map(|s| nodes(&s.node)).collect::<Vec<_>>(), [vec!["Hero".to_string()]]);
+    assert_eq!(c.fiv.iter().map(|f| nodes(&f.node)).collect::<Vec<_>>(), [vec!["Statue".to_string()]]);
+    let level = penumbra_config::load_level(&dir.path().join("demo-level.level.toml")).unwrap();
+    let shapes: Vec<&str> = level.blocks.iter().map(|b| b.shape.as_str()).collect();
+    assert_eq!(shapes, ["dead_end", "straight", "dead_end"]);
+    assert_eq!(level.connections.len(), 2);
+    let cl = penumbra_config::clutter::load_clutter(&dir.path().join("demo-level.clutter.toml")).unwrap();
+    let names: Vec<String> = cl.clutter.iter().filter_map(|e| e.name.clone()).collect();
+    assert_eq!(names, ["Crate", "Prop_Pillar", "Prop_Box"]);
+    let un: Vec<&str> = v["unassigned"].as_array().unwrap().iter().filter_map(|u| u["node"].as_str()).collect();
+    assert_eq!(un, ["Lamp"]);
+}
