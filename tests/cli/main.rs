@@ -13,6 +13,7 @@ mod inspect;
 mod local_lights;
 mod mrt;
 mod mrt_level;
+mod plan;
 mod posed_spheres;
 mod runtime;
 mod shadows;

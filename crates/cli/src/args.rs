@@ -47,6 +47,9 @@ pub enum Command {
     Sweep(SweepArgs),
     /// Print the JSON Schema of the bake config (or, with --level, of the MRT level file).
     Schema(SchemaArgs),
+    /// Write the bake config a glTF level needs: roles from node extras or --role ROLE=GLOB
+    /// (characters → sphere sets, occluders → FIV, clutter → DRT, blocks → MRT level).
+    Plan(crate::commands::plan::PlanArgs),
 }
 
 /// `penumbra schema`.

@@ -40,12 +40,14 @@
 //!   fast exact [`InsideOracle`]; triangle/box overlap.
 //! - [`env`](mod@env): [`EnvMap`], [`CubeMap`], [`load_env_map`], procedural area-light maps.
 //! - [`ball`]: minimum enclosing ball ([`min_enclosing_ball`]).
+//! - [`demo_level`]: the demo glTF level of `penumbra plan` (`bake-configs/assets/demo-level.gltf`).
 
 mod aabb_tree;
 pub mod ball;
 pub mod bvh;
 #[cfg(test)]
 mod bvh_tests;
+pub mod demo_level;
 pub mod env;
 pub mod error;
 pub mod export;

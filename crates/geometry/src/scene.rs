@@ -61,6 +61,9 @@ pub struct Node {
     /// The file's local matrix when it gave one instead of TRS; used at rest and when no
     /// animation channel targets the node (a matrix with shear cannot be decomposed exactly).
     pub matrix: Option<Mat4>,
+    /// The node's glTF `extras` as raw JSON text, when the file gives them (`penumbra plan`
+    /// reads its roles from `extras.penumbra`).
+    pub extras: Option<String>,
 }
 
 /// A skin: the joints (node indices) and their inverse bind matrices.
@@ -623,13 +626,14 @@ mod tests {
     fn linear_blend_skinning() {
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let nodes = vec![
-            Node { name: None, parent: None, children: vec![1], rest: Trs::default(), matrix: None },
+            Node { name: None, parent: None, children: vec![1], rest: Trs::default(), matrix: None, extras: None },
             Node {
                 name: None,
                 parent: Some(0),
                 children: vec![],
                 rest: Trs { translation: [0.0, 1.0, 0.0], ..Trs::default() },
                 matrix: None,
+                extras: None,
             },
             Node {
                 name: Some("mesh".into()),
@@ -640,6 +644,7 @@ mod tests {
                     ..Trs::default()
                 },
                 matrix: None,
+                extras: None,
             },
         ];
         let ibm1 = DMat4::from_translation(DVec3::new(0.0, -1.0, 0.0)).to_cols_array_2d();

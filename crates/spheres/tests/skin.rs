@@ -32,6 +32,7 @@ fn two_bone_bar(shift: [f64; 3]) -> Scene {
         children: vec![],
         rest: Trs::default(),
         matrix: None,
+        extras: None,
     };
     let bindings = mesh
         .positions

@@ -10,6 +10,8 @@ pub mod gate;
 pub mod inspect;
 pub mod mrt;
 pub mod mrt_level;
+pub mod plan;
+pub mod plan_level;
 pub mod spheres;
 pub mod sweep;
 pub mod sweep_drt;
@@ -44,6 +46,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Fiv(a) => fiv::run(&a, cli.progress),
         Command::Drt(a) => drt::run(&a, cli.progress),
         Command::Vo(a) => vo::run(&a, cli.progress),
+        Command::Plan(a) => plan::run(&a),
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),

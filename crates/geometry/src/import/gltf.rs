@@ -601,6 +601,7 @@ fn read_nodes(doc: &gltf::Document) -> Result<Vec<Node>, String> {
             children: node.children().map(|c| c.index()).collect(),
             rest,
             matrix,
+            extras: node.extras().as_ref().map(|r| r.get().to_string()),
         });
     }
     for p in 0..n {
