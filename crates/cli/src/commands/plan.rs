@@ -133,6 +133,7 @@ fn mrt_stage(face_res: Option<u32>, kd: Option<u32>, kb: Option<u32>, rays: Opti
         interface_enrich: None,
         response_rays: None,
         interface_vectors: None,
+        level_shapes_only: None,
         output: None,
     }
 }
