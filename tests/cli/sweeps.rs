@@ -228,3 +228,39 @@ fn sweep_drt_reuses_the_rays_across_kc_to_a_standalone_bakes_bytes() {
     assert!(stderr.contains("kc"), "{stderr}");
     assert!(!bad.exists());
 }
+
+#[test]
+fn sweep_mrt_error_falls_with_modes_and_each_dictionary_is_the_standalone_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sw");
+    let knobs = ["--face-res", "4", "--kd", "16", "--rays", "256", "--k-rlf", "16", "--k-r", "8"];
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["sweep", "mrt", "--corridor", "3", "--kb", "4,12", "--reference-rays", "128"])
+        .args(knobs)
+        .arg("-o")
+        .arg(&out)
+        .arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(v["references"].as_array().unwrap().len(), 1, "one reference for one face-res");
+    assert_eq!(std::fs::read_to_string(out.join("sweep.csv")).unwrap().lines().count(), 3);
+    assert_front(rows, "bake_seconds", "rel_error_one_bounce", "pareto_seconds");
+    assert_front(rows, "bytes", "rel_error_one_bounce", "pareto_bytes");
+    // more modes, less error
+    assert!(num(&rows[1]["rel_error_one_bounce"]) < num(&rows[0]["rel_error_one_bounce"]), "{v}");
+    // each point's dictionary is what `penumbra mrt dict` writes for it
+    let own = dir.path().join("own.mrtd");
+    let (code, _, stderr) = run(penumbra().args(["mrt", "dict", "--kb", "12"]).args(knobs).arg("-o").arg(&own));
+    assert_eq!(code, 0, "{stderr}");
+    let swept = out.join(rows[1]["output"].as_str().unwrap());
+    assert!(std::fs::read(&own).unwrap() == std::fs::read(swept).unwrap());
+    // a point out of range (k_b above k_d): exit 2 before anything is written
+    let bad = dir.path().join("bad");
+    let (code, _, stderr) =
+        run(penumbra().args(["sweep", "mrt", "--corridor", "3", "--kd", "16", "--kb", "8,20", "-o"]).arg(&bad));
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("kb"), "{stderr}");
+    assert!(!bad.exists());
+}

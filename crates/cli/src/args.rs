@@ -549,4 +549,7 @@ pub enum SweepCommand {
     /// DRT clutter operators over scene rays, clutter rays, neighbourhood and rank of C_b:
     /// one-bounce error against one shared path-traced reference, bake seconds and bytes.
     Drt(crate::commands::sweep_drt::SweepDrtArgs),
+    /// MRT dictionaries over face resolution, k_d, k_b, gather rays, k_rlf and k_r: one- and
+    /// multi-bounce error on a level against one path-traced reference per face resolution.
+    Mrt(crate::commands::sweep_mrt::SweepMrtArgs),
 }

@@ -16,6 +16,7 @@ pub mod spheres;
 pub mod sweep;
 pub mod sweep_drt;
 pub mod sweep_fiv;
+pub mod sweep_mrt;
 pub mod sweep_shadows;
 pub mod sweep_spheres;
 pub mod sweep_tables;
@@ -60,6 +61,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
             crate::args::SweepCommand::Tables(v) => sweep_tables::run(&v, cli.progress),
             crate::args::SweepCommand::Fiv(v) => sweep_fiv::run(&v, cli.progress),
             crate::args::SweepCommand::Drt(v) => sweep_drt::run(&v, cli.progress),
+            crate::args::SweepCommand::Mrt(v) => sweep_mrt::run(&v, cli.progress),
         },
         Command::Schema(a) => {
             let s = if a.level {
