@@ -98,7 +98,6 @@ pub fn run(a: &BakeMergeArgs) -> Result<ExitCode, CliError> {
         )));
     }
     // files: the union, the same bytes where two shards hold one
-    std::fs::create_dir_all(&a.output).with_context(|| format!("cannot create {}", a.output.display()))?;
     let mut files: BTreeMap<String, PathBuf> = BTreeMap::new();
     for s in &shards {
         let entries = std::fs::read_dir(&s.dir).with_context(|| format!("cannot read {}", s.dir.display()))?;
@@ -121,11 +120,6 @@ pub fn run(a: &BakeMergeArgs) -> Result<ExitCode, CliError> {
             }
             files.insert(name, e.path());
         }
-    }
-    for (name, src) in &files {
-        let bytes = std::fs::read(src).with_context(|| format!("cannot read {}", src.display()))?;
-        penumbra_asset::write_file_atomic(a.output.join(name), &bytes)
-            .with_context(|| format!("cannot write {}", a.output.join(name).display()))?;
     }
     // the report: each stage from the shard that ran it
     let mut stages = Vec::new();
@@ -167,6 +161,13 @@ pub fn run(a: &BakeMergeArgs) -> Result<ExitCode, CliError> {
             }
         }
         stages.push(stage);
+    }
+    // only now, every check passed: nothing is written for a refused merge
+    std::fs::create_dir_all(&a.output).with_context(|| format!("cannot create {}", a.output.display()))?;
+    for (name, src) in &files {
+        let bytes = std::fs::read(src).with_context(|| format!("cannot read {}", src.display()))?;
+        penumbra_asset::write_file_atomic(a.output.join(name), &bytes)
+            .with_context(|| format!("cannot write {}", a.output.join(name).display()))?;
     }
     let seconds = shards.iter().filter_map(|s| s.report["seconds"].as_f64()).fold(0.0f64, f64::max);
     let report = json!({

@@ -100,3 +100,36 @@ impl Drop for OutputGuard {
         }
     }
 }
+
+/// Flags each row `key` = whether it is on the Pareto front of `(row[x], row[y])`, both
+/// minimised (a row missing either value is never on it).
+pub fn flag_front(rows: &mut [Value], key: &str, x: &str, y: &str) {
+    let pts: Vec<(f64, f64)> =
+        rows.iter().map(|r| (r[x].as_f64().unwrap_or(f64::NAN), r[y].as_f64().unwrap_or(f64::NAN))).collect();
+    for (r, on) in rows.iter_mut().zip(pareto_front(&pts)) {
+        r[key] = Value::Bool(on);
+    }
+}
+
+/// The sweep's `seconds` over its most expensive point's `bake_seconds` (null without points).
+pub fn cost_ratio(rows: &[Value], seconds: f64) -> Value {
+    let max = rows.iter().filter_map(|r| r["bake_seconds"].as_f64()).fold(0.0f64, f64::max);
+    if max > 0.0 { Value::from(seconds / max) } else { Value::Null }
+}
+
+/// Writes `sweep.csv`, `sweep.svg` and `sweep.json` into `dir` under `guard` (removed with the
+/// rest if a write fails) and keeps the sweep's outputs.
+pub fn finish(
+    mut guard: OutputGuard,
+    dir: &Path,
+    csv: &str,
+    panels: &[Panel],
+    summary: &Value,
+) -> Result<(), CliError> {
+    for f in ["sweep.csv", "sweep.svg", "sweep.json"] {
+        guard.file(f);
+    }
+    write_outputs(dir, csv, panels, summary)?;
+    guard.keep();
+    Ok(())
+}

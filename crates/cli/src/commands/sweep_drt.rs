@@ -10,8 +10,8 @@
 use crate::commands::drt::{DrtSceneArgs, cache_key, load_scene};
 use crate::commands::mrt_level::bake as bake_level;
 use crate::commands::print_json;
-use crate::commands::sweep::{OutputGuard, csv_text, parse_list, with_front, write_outputs};
-use crate::commands::verify_drt::{rel, scene_lights};
+use crate::commands::sweep::{OutputGuard, cost_ratio, csv_text, finish, flag_front, parse_list, with_front};
+use crate::commands::verify_drt::{direct_light, receivers, rel, scene_lights, visible_texels};
 use crate::commands::verify_mrt::median_ms;
 use crate::exit::{CliError, ExitCode};
 use crate::progress::{ProgressMode, Reporter};
@@ -25,7 +25,7 @@ use penumbra_runtime::drt::{DrtOperators, DrtRuntime, Paths};
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
 use penumbra_transport::drt::{DrtParams, Scene, bake_incremental, bake_with_state};
 use penumbra_transport::drt_asset::to_asset;
-use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
+use penumbra_transport::drt_reference::{Albedo, reference};
 use penumbra_transport::drt_state::DrtState;
 use penumbra_transport::level_reference::{LevelGeometry, level_texels};
 use serde_json::{Value, json};
@@ -125,22 +125,9 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let lights = scene_lights(a.lights.as_deref(), &sc, &geo)?;
     let tex = level_texels(&sc.level, &sc.ops.missing, sc.ops.face_res);
     let n = tex.texels.len();
-    let mut recv: Vec<Receiver> =
-        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn, horizon: None }).collect();
-    let mut clutter_ok = Vec::new();
-    for t in &sc.clutter.texels {
-        let o: [f64; 3] = core::array::from_fn(|k| t.position[k] + 1e-7 * t.normal[k]);
-        let b = geo.block_of(o);
-        clutter_ok.push(b.is_some());
-        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal, horizon: None });
-    }
+    let (recv, clutter_ok) = receivers(&tex, &sc, &geo);
     let m = sc.clutter.texels.len();
-    let l_d: Vec<f32> = recv[..n].iter().map(|r| direct(&scene, r.block, r.point, r.normal, &lights) as f32).collect();
-    let l_dc: Vec<f32> = recv[n..]
-        .iter()
-        .zip(&clutter_ok)
-        .map(|(r, &ok)| if ok { direct(&scene, r.block, r.point, r.normal, &lights) as f32 } else { 0.0 })
-        .collect();
+    let (l_d, l_dc) = direct_light(&scene, &recv, n, &clutter_ok, &lights);
     let rep = Reporter::new("sweep drt", mode);
     let done = AtomicU64::new(0);
     let total = recv.len() as u64;
@@ -243,16 +230,7 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         drt.one_bounce(&mut mrt, &l_d, &l_dc, 0, scale, Paths::ALL, &mut s, &mut c);
         let ms_runtime = median_ms(11, || drt.one_bounce(&mut mrt, &l_d, &l_dc, 0, scale, Paths::ALL, &mut s, &mut c));
         // scene texels inside clutter are not seen: left out, as `verify drt` does
-        let mut keep = vec![true; n];
-        let ops = drt.operators();
-        for rc in ops.receivers.chunks_exact(3) {
-            let (blk, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
-            for t in 0..cnt {
-                if ops.inpaint_mask[off + t] != 0 {
-                    keep[tex.offsets[blk] + t] = false;
-                }
-            }
-        }
+        let keep = visible_texels(drt.operators(), &tex);
         let to64 = |v: &[f32]| -> Vec<f64> { v.iter().map(|&x| f64::from(x)).collect() };
         let (s, c) = (to64(&s), to64(&c));
         rows.push(json!({
@@ -262,7 +240,7 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             "kc": p.k_c,
             "bake_seconds": bake_seconds,
             "spent_seconds": spent_seconds,
-            "rays_traced": b.metrics.rays_traced,
+            "rays_per_bake": b.metrics.rays_traced,
             "rays_reused": reused,
             "bytes": bytes.len(),
             "ms_runtime": ms_runtime,
@@ -288,16 +266,8 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             );
         }
     }
-    for (key, x) in [("pareto_seconds", "bake_seconds"), ("pareto_bytes", "bytes")] {
-        let pts: Vec<(f64, f64)> = rows
-            .iter()
-            .map(|r| (r[x].as_f64().unwrap_or(f64::NAN), r["rel_error_mrt_drt"].as_f64().unwrap_or(f64::NAN)))
-            .collect();
-        let on = crate::svgplot::pareto_front(&pts);
-        for (r, o) in rows.iter_mut().zip(on) {
-            r[key] = json!(o);
-        }
-    }
+    flag_front(&mut rows, "pareto_seconds", "bake_seconds", "rel_error_mrt_drt");
+    flag_front(&mut rows, "pareto_bytes", "bytes", "rel_error_mrt_drt");
     let cols = [
         "rays",
         "clutter_rays",
@@ -305,7 +275,7 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         "kc",
         "bake_seconds",
         "spent_seconds",
-        "rays_traced",
+        "rays_per_bake",
         "rays_reused",
         "bytes",
         "ms_runtime",
@@ -360,7 +330,6 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             front: Vec::new(),
         }),
     ];
-    let max_point = rows.iter().filter_map(|r| r["bake_seconds"].as_f64()).fold(0.0f64, f64::max);
     let seconds = start.elapsed().as_secs_f64();
     let summary = json!({
         "scene": sc.what,
@@ -370,14 +339,10 @@ pub fn run(a: &SweepDrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         "rel_error_mrt": rows.first().map_or(Value::Null, |r| r["rel_error_mrt"].clone()),
         "rows": rows,
         "seconds": seconds,
-        "cost_vs_most_expensive_point": if max_point > 0.0 { json!(seconds / max_point) } else { Value::Null },
+        "cost_vs_most_expensive_point": cost_ratio(&rows, seconds),
         "output": a.output.display().to_string(),
     });
-    guard.file("sweep.csv");
-    guard.file("sweep.svg");
-    guard.file("sweep.json");
-    write_outputs(&a.output, &csv, &panels, &summary)?;
-    guard.keep();
+    finish(guard, &a.output, &csv, &panels, &summary)?;
     if a.json {
         print_json(&summary);
     } else {

@@ -9,7 +9,7 @@
 use crate::commands::mrt::{DictOptions, bake_to, params};
 use crate::commands::mrt_level::{LevelSource, bake as bake_level, load_dict, resolve};
 use crate::commands::print_json;
-use crate::commands::sweep::{OutputGuard, csv_text, parse_list, with_front, write_outputs};
+use crate::commands::sweep::{OutputGuard, cost_ratio, csv_text, finish, flag_front, parse_list, with_front};
 use crate::commands::verify_mrt::{default_lights, load_point_lights};
 use crate::exit::{CliError, ExitCode};
 use crate::progress::ProgressMode;
@@ -208,16 +208,8 @@ pub fn run(a: &SweepMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             );
         }
     }
-    for (key, x) in [("pareto_seconds", "bake_seconds"), ("pareto_bytes", "bytes")] {
-        let pts: Vec<(f64, f64)> = rows
-            .iter()
-            .map(|r| (r[x].as_f64().unwrap_or(f64::NAN), r["rel_error_one_bounce"].as_f64().unwrap_or(f64::NAN)))
-            .collect();
-        let on = crate::svgplot::pareto_front(&pts);
-        for (r, o) in rows.iter_mut().zip(on) {
-            r[key] = json!(o);
-        }
-    }
+    flag_front(&mut rows, "pareto_seconds", "bake_seconds", "rel_error_one_bounce");
+    flag_front(&mut rows, "pareto_bytes", "bytes", "rel_error_one_bounce");
     let cols = [
         "face_res",
         "kd",
@@ -280,7 +272,6 @@ pub fn run(a: &SweepMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
             front: Vec::new(),
         }),
     ];
-    let max_point = rows.iter().filter_map(|r| r["bake_seconds"].as_f64()).fold(0.0f64, f64::max);
     let seconds = start.elapsed().as_secs_f64();
     let summary = json!({
         "level": what,
@@ -289,14 +280,10 @@ pub fn run(a: &SweepMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         "references": refs.iter().map(|(f, _, s)| json!({"face_res": f, "seconds": s})).collect::<Vec<_>>(),
         "rows": rows,
         "seconds": seconds,
-        "cost_vs_most_expensive_point": if max_point > 0.0 { json!(seconds / max_point) } else { Value::Null },
+        "cost_vs_most_expensive_point": cost_ratio(&rows, seconds),
         "output": a.output.display().to_string(),
     });
-    guard.file("sweep.csv");
-    guard.file("sweep.svg");
-    guard.file("sweep.json");
-    write_outputs(&a.output, &csv, &panels, &summary)?;
-    guard.keep();
+    finish(guard, &a.output, &csv, &panels, &summary)?;
     if a.json {
         print_json(&summary);
     } else {

@@ -19,7 +19,7 @@ use penumbra_transport::drt::Scene;
 use penumbra_transport::drt_reference::{Albedo, Receiver, direct, reference};
 use penumbra_transport::gather::sh9;
 use penumbra_transport::level::rotate_y;
-use penumbra_transport::level_reference::{LevelGeometry, PointLight, level_texels};
+use penumbra_transport::level_reference::{LevelGeometry, LevelTexels, PointLight, level_texels};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -114,6 +114,52 @@ pub(crate) fn scene_lights(
         (None, Some(l)) => Ok(l.clone()),
         (None, None) => Ok(default_lights(&sc.level)),
     }
+}
+
+/// The receivers of a DRT comparison: every scene texel, then every clutter texel (its block
+/// found a hair off the surface); `clutter_ok[i]`: clutter texel `i` lies in a block.
+pub(crate) fn receivers(tex: &LevelTexels, sc: &DrtScene, geo: &LevelGeometry<'_>) -> (Vec<Receiver>, Vec<bool>) {
+    let mut recv: Vec<Receiver> =
+        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn, horizon: None }).collect();
+    let mut clutter_ok = Vec::new();
+    for t in &sc.clutter.texels {
+        let o: [f64; 3] = core::array::from_fn(|k| t.position[k] + 1e-7 * t.normal[k]);
+        let b = geo.block_of(o);
+        clutter_ok.push(b.is_some());
+        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal, horizon: None });
+    }
+    (recv, clutter_ok)
+}
+
+/// Direct light at the `n` scene texels and at the clutter texels after them (0 for a clutter
+/// texel outside every block).
+pub(crate) fn direct_light(
+    scene: &Scene<'_>,
+    recv: &[Receiver],
+    n: usize,
+    clutter_ok: &[bool],
+    lights: &[PointLight],
+) -> (Vec<f32>, Vec<f32>) {
+    let at = |r: &Receiver| direct(scene, r.block, r.point, r.normal, lights) as f32;
+    let l_d = recv[..n].iter().map(at).collect();
+    let l_dc =
+        recv[n..n + clutter_ok.len()].iter().zip(clutter_ok).map(|(r, &ok)| if ok { at(r) } else { 0.0 }).collect();
+    (l_d, l_dc)
+}
+
+/// The scene texels a comparison keeps: those not inside clutter (the operators' inpainting
+/// mask), in level texel order.
+pub(crate) fn visible_texels(ops: &DrtOperators<'_>, tex: &LevelTexels) -> Vec<bool> {
+    let mut keep = vec![true; tex.texels.len()];
+    for rc in ops.receivers.chunks_exact(3) {
+        let (b, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
+        for t in 0..cnt {
+            if ops.inpaint_mask[off + t] != 0 {
+                keep[tex.offsets[b] + t] = false;
+            }
+        }
+    }
+    keep
 }
 
 /// MRT's volume-probe irradiance (U_bvol, §3.5.5) at clutter texels, from each block's `b`.
@@ -254,26 +300,9 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
         return Err(CliError::internal(anyhow!("texel count {n} vs runtime {}", mrt.texel_count())));
     }
     // receivers: every scene texel, then every clutter texel (its block probed off the surface)
-    let mut recv: Vec<Receiver> =
-        tex.texels.iter().map(|&(b, _, p, nn)| Receiver { block: b, point: p, normal: nn, horizon: None }).collect();
-    let mut clutter_ok = Vec::new();
-    for t in &sc.clutter.texels {
-        let o = [
-            t.position[0] + 1e-7 * t.normal[0],
-            t.position[1] + 1e-7 * t.normal[1],
-            t.position[2] + 1e-7 * t.normal[2],
-        ];
-        let b = geo.block_of(o);
-        clutter_ok.push(b.is_some());
-        recv.push(Receiver { block: b.unwrap_or(0), point: t.position, normal: t.normal, horizon: None });
-    }
+    let (mut recv, clutter_ok) = receivers(&tex, &sc, &geo);
     let m = sc.clutter.texels.len();
-    let l_d: Vec<f32> = recv[..n].iter().map(|r| direct(&scene, r.block, r.point, r.normal, &lights) as f32).collect();
-    let l_dc: Vec<f32> = recv[n..]
-        .iter()
-        .zip(&clutter_ok)
-        .map(|(r, &ok)| if ok { direct(&scene, r.block, r.point, r.normal, &lights) as f32 } else { 0.0 })
-        .collect();
+    let (l_d, l_dc) = direct_light(&scene, &recv, n, &clutter_ok, &lights);
     let scale = (a.albedo / sc.ops.albedo) as f32;
     let ch = a.channel as usize;
     // runtime: MRT alone, MRT + DRT (with and without inpainting), occlusion only, multi-bounce
@@ -339,16 +368,8 @@ pub(crate) fn run_report(a: &VerifyDrtArgs, mode: ProgressMode) -> Result<(ExitC
     recv.extend(boundary.iter().map(|(r, _)| *r));
 
     // scene texels inside clutter are not seen: left out (and counted)
-    let mut keep = vec![true; n];
+    let keep = visible_texels(drt.operators(), &tex);
     let ops = drt.operators();
-    for rc in ops.receivers.chunks_exact(3) {
-        let (b, off, cnt) = (rc[0] as usize, rc[1] as usize, rc[2] as usize);
-        for t in 0..cnt {
-            if ops.inpaint_mask[off + t] != 0 {
-                keep[tex.offsets[b] + t] = false;
-            }
-        }
-    }
     // §5.4.3: the vector and volume response, when the asset carries it (`drt --vector`)
     let mut dv = DrtVector::from_asset(&da, &mrt, ops.instances, ops.receivers, ops.chart_count() as u32)
         .map_err(|e| CliError::input(anyhow!("DRT vector operators: {e}")))?;
