@@ -8,6 +8,7 @@ mod capi_shadows;
 mod compat;
 mod drt;
 mod fiv;
+mod gpu;
 mod indirect;
 mod inspect;
 mod local_lights;

@@ -50,6 +50,9 @@ pub enum Command {
     /// Write the bake config a glTF level needs: roles from node extras or --role ROLE=GLOB
     /// (characters → sphere sets, occluders → FIV, clutter → DRT, blocks → MRT level).
     Plan(crate::commands::plan::PlanArgs),
+    /// The runtime's WGSL shaders: `shaders export -o DIR` writes them with their SPIR-V, HLSL,
+    /// GLSL and MSL translations (naga) and a README of bindings and layouts.
+    Shaders(crate::commands::shaders::ShadersArgs),
 }
 
 /// `penumbra schema`.
@@ -470,6 +473,9 @@ pub enum VerifyCommand {
     /// Volumetric-obscurance estimators (lines, area, points; MRT thesis §6.3) on a ray-cast
     /// depth buffer against the obscurance integral over the mesh and over the height field.
     Vo(crate::commands::verify_vo::VerifyVoArgs),
+    /// The WGSL twins of the runtime evaluators on a compute device (lavapipe will do) against
+    /// the CPU runtime on the same inputs: max_rel_diff, adapter, gpu_ms, cpu_ms.
+    Gpu(crate::commands::verify_gpu::VerifyGpuArgs),
 }
 
 /// Partial-occluder handling at run time (FIV §4.3.1).

@@ -12,6 +12,7 @@ pub mod mrt;
 pub mod mrt_level;
 pub mod plan;
 pub mod plan_level;
+pub mod shaders;
 pub mod spheres;
 pub mod sweep;
 pub mod sweep_drt;
@@ -24,6 +25,7 @@ pub mod tables;
 pub mod verify_drt;
 pub mod verify_drt_vector;
 pub mod verify_fiv;
+pub mod verify_gpu;
 pub mod verify_mrt;
 pub mod verify_mrt_vector;
 pub mod verify_shadows;
@@ -48,12 +50,14 @@ pub fn run(cli: Cli) -> Result<ExitCode, CliError> {
         Command::Drt(a) => drt::run(&a, cli.progress),
         Command::Vo(a) => vo::run(&a, cli.progress),
         Command::Plan(a) => plan::run(&a),
+        Command::Shaders(a) => shaders::run(&a),
         Command::Verify(a) => match a.command {
             crate::args::VerifyCommand::Fiv(v) => verify_fiv::run(&v),
             crate::args::VerifyCommand::Shadows(v) => verify_shadows::run(&v),
             crate::args::VerifyCommand::Mrt(v) => verify_mrt::run(&v, cli.progress),
             crate::args::VerifyCommand::Drt(v) => verify_drt::run(&v, cli.progress),
             crate::args::VerifyCommand::Vo(v) => verify_vo::run(&v),
+            crate::args::VerifyCommand::Gpu(v) => verify_gpu::run(&v),
         },
         Command::Sweep(a) => match a.command {
             crate::args::SweepCommand::Shadows(v) => sweep_shadows::run(&v, cli.progress),

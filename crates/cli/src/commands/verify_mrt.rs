@@ -12,6 +12,7 @@ use penumbra_asset::{Asset, AssetFile};
 use penumbra_math::progress::Progress;
 use penumbra_runtime::mrt::{MrtDictionary, MrtLevel, MrtRuntime};
 use penumbra_transport::level::{Level, Links};
+use penumbra_transport::level_ops::DictOps;
 use penumbra_transport::level_reference::{
     LevelGeometry, PointLight, direct_at, level_texels, reference, reference_at,
 };
@@ -150,20 +151,31 @@ pub fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
     t[t.len() / 2]
 }
 
-/// Runs `penumbra verify mrt`.
-pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
-    run_report(a, mode).map(|(code, _)| code)
+/// A level to evaluate with its dictionary: the level and its links, what it is called, and
+/// its level-asset bytes (a baked `.mrtl` as it is, checked against the dictionary; otherwise
+/// baked here with `max_depth`). Shared by `verify mrt` and `verify gpu mrt`.
+pub(crate) struct OpenedLevel {
+    pub d: DictOps,
+    pub level: Level,
+    pub links: Links,
+    pub what: String,
+    pub bytes: Vec<u8>,
+    pub max_depth: usize,
 }
 
-/// Runs `penumbra verify mrt` and returns its report too (`penumbra bake` stage gates).
-#[allow(clippy::print_stderr)]
-pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitCode, serde_json::Value), CliError> {
-    let start = Instant::now();
-    let d = load_dict(&a.dict)?;
+/// Opens `--level` (a level file or a baked `.mrtl`) or the procedural `source` against the
+/// dictionary at `dict`.
+pub(crate) fn open_level(
+    dict: &std::path::Path,
+    level: Option<&std::path::Path>,
+    source: &LevelSource,
+    max_depth: usize,
+) -> Result<OpenedLevel, CliError> {
+    let d = load_dict(dict)?;
     // a baked MRTL asset: its own level and operators (checked against the dictionary)
     let mut baked: Option<(Vec<u8>, usize)> = None;
     let mut from_asset: Option<(Level, Links, String)> = None;
-    if let Some(p) = &a.level {
+    if let Some(p) = level {
         let bytes = std::fs::read(p).with_context(|| format!("cannot read level {}", p.display()))?;
         if bytes.starts_with(b"PENUMBRA") {
             let asset = penumbra_asset::OwnedAsset::parse(&bytes)
@@ -182,11 +194,11 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
                     "{} was baked with another dictionary (CRC-32C {}), not {} ({:08x})",
                     p.display(),
                     meta["dictionary"]["crc32c"],
-                    a.dict.display(),
+                    dict.display(),
                     d.crc32c
                 )));
             }
-            if a.source.maze.is_some() || a.source.corridor.is_some() || a.source.l_turn.is_some() {
+            if source.maze.is_some() || source.corridor.is_some() || source.l_turn.is_some() {
                 return Err(CliError::input(anyhow!("give either --level or --maze/--corridor/--l-turn, not both")));
             }
             let lf: penumbra_config::LevelFile = serde_json::from_value(meta["level"].clone())
@@ -199,8 +211,26 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
     }
     let (level, links, what) = match from_asset {
         Some(x) => x,
-        None => resolve(a.level.as_deref(), &a.source, &d)?,
+        None => resolve(level, source, &d)?,
     };
+    let (max_depth, bytes) = match baked {
+        Some((bytes, depth)) => (depth, bytes),
+        None => (max_depth, bake(&level, &links, &d, max_depth, None)?.1),
+    };
+    Ok(OpenedLevel { d, level, links, what, bytes, max_depth })
+}
+
+/// Runs `penumbra verify mrt`.
+pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
+    run_report(a, mode).map(|(code, _)| code)
+}
+
+/// Runs `penumbra verify mrt` and returns its report too (`penumbra bake` stage gates).
+#[allow(clippy::print_stderr)]
+pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitCode, serde_json::Value), CliError> {
+    let start = Instant::now();
+    let OpenedLevel { d, level, links, what, bytes, max_depth } =
+        open_level(&a.dict, a.level.as_deref(), &a.source, a.max_depth as usize)?;
     let geo = LevelGeometry { level: &level, links: &links, missing: &d.missing };
     let lights: Vec<PointLight> = match &a.lights {
         Some(p) => load_point_lights(p, &geo)?,
@@ -208,10 +238,6 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
     };
     let outside_prior = lights_outside_prior(&geo, &lights);
     // the level operators, through the asset bytes the runtime reads
-    let (max_depth, bytes) = match baked {
-        Some((bytes, depth)) => (depth, bytes),
-        None => (a.max_depth as usize, bake(&level, &links, &d, a.max_depth as usize, None)?.1),
-    };
     let level_asset = penumbra_asset::OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
     let dict_file = AssetFile::open(&a.dict).with_context(|| format!("cannot open {}", a.dict.display()))?;
     let dict_asset: Asset<'_> = dict_file.asset();
