@@ -660,3 +660,101 @@ fn bake_config_drt_stage_takes_the_vector_operators() {
         assert!(stderr.contains(key), "{key}: {stderr}");
     }
 }
+
+/// `drt --target-error` on the pillars at 4² texels per clutter face, 64 reference rays.
+fn drt_target(dict: &Path, target: &str, extra: &[&str], out: &Path) -> (i32, Value, String) {
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["drt", "--example", "pillars", "--clutter-res", "4", "--reference-rays", "64"])
+        .args(["--target-error", target])
+        .args(extra)
+        .arg("--dict")
+        .arg(dict)
+        .arg("-o")
+        .arg(out)
+        .arg("--json"));
+    (code, serde_json::from_str(&stdout).unwrap_or(Value::Null), stderr)
+}
+
+fn plain_drt(dict: &Path, rays: &Value, out: &Path) {
+    let (code, _, stderr) = run(penumbra()
+        .args(["drt", "--example", "pillars", "--clutter-res", "4", "--rays", &rays.to_string()])
+        .arg("--dict")
+        .arg(dict)
+        .arg("-o")
+        .arg(out));
+    assert_eq!(code, 0, "{stderr}");
+}
+
+fn verified_rel_error(dict: &Path, asset: &Path) -> f64 {
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "drt", "--example", "pillars", "--clutter-res", "4"])
+        .args(["--reference-rays", "64", "--json", "--dict"])
+        .arg(dict)
+        .arg("--drt")
+        .arg(asset));
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str::<Value>(&stdout).unwrap()["rel_error_mrt_drt"].as_f64().unwrap()
+}
+
+#[test]
+fn target_error_writes_the_fewest_rays_that_meet_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    // unreachable under the budget: exit 1, the best asset written
+    let best = dir.path().join("best.drto");
+    let (code, v, stderr) = drt_target(&d, "0.000001", &["--max-rays", "128"], &best);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("quality gate failed"), "{stderr}");
+    for k in ["target", "chosen", "measured", "search_seconds", "candidates_tried", "target_met", "reason"] {
+        assert!(v.get(k).is_some(), "missing {k}: {v}");
+    }
+    let tried = v["candidates_tried"].as_array().unwrap().clone();
+    let rays: Vec<u64> = tried.iter().map(|t| t["settings"]["rays"].as_u64().unwrap()).collect();
+    assert_eq!(rays, [32, 64, 128]);
+    let m: Vec<f64> = tried.iter().map(|t| t["measured"].as_f64().unwrap()).collect();
+    assert_eq!(v["measured"].as_f64().unwrap(), m.iter().copied().fold(f64::INFINITY, f64::min));
+    let plain = dir.path().join("plain-best.drto");
+    plain_drt(&d, &v["chosen"]["rays"], &plain);
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&best).unwrap(), "best asset != its plain bake");
+
+    // a target the first rung misses and a later one meets
+    let j =
+        (1..m.len()).find(|&j| m[j] < m[..j].iter().copied().fold(f64::INFINITY, f64::min)).expect("more rays help");
+    let target = 0.5 * (m[j] + m[..j].iter().copied().fold(f64::INFINITY, f64::min));
+    let out = dir.path().join("t.drto");
+    let (code, v, stderr) = drt_target(&d, &target.to_string(), &[], &out);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(v["target_met"], true);
+    assert_eq!(v["chosen"], tried[j]["settings"]);
+    assert_eq!(v["measured"].as_f64().unwrap(), m[j]);
+    let now = v["candidates_tried"].as_array().unwrap();
+    assert_eq!(now.len(), j + 1);
+    for t in &now[..j] {
+        assert!(t["measured"].as_f64().unwrap() > target, "{t}");
+    }
+    assert!(v["rel_error_clutter_cb"].as_f64().is_some() && v["rel_error_mrt"].as_f64().is_some());
+    let plain = dir.path().join("plain.drto");
+    plain_drt(&d, &v["chosen"]["rays"], &plain);
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&out).unwrap(), "chosen asset != its plain bake");
+    // an independent verify: the chosen meets the target, the next cheaper rung does not
+    let e = verified_rel_error(&d, &out);
+    assert!((e - m[j]).abs() <= 1e-9 * m[j], "verify {e} vs search {}", m[j]);
+    let cheaper = dir.path().join("cheaper.drto");
+    plain_drt(&d, &tried[j - 1]["settings"]["rays"], &cheaper);
+    assert!(verified_rel_error(&d, &cheaper) > target);
+
+    // a target with a knob it chooses, or a bad value: exit 2, nothing written
+    let x = dir.path().join("x.drto");
+    for (t, extra) in [
+        ("0.1", &["--rays", "64"][..]),
+        ("0.1", &["--clutter-rays", "64"]),
+        ("0.1", &["--state", "s.state"]),
+        ("0", &[]),
+        ("nan", &[]),
+        ("0.1", &["--max-rays", "16"]),
+    ] {
+        let (code, _, stderr) = drt_target(&d, t, extra, &x);
+        assert_eq!(code, 2, "{t} {extra:?}: {stderr}");
+        assert!(!x.exists());
+    }
+}

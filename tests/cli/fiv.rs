@@ -1010,3 +1010,155 @@ fn yaw_steps_blend_toward_the_turned_environment() {
     assert!(stderr.contains("not a multiple"), "{stderr}");
     assert!(!dir.path().join("x0.fivt").exists());
 }
+
+const TORUS: &[&str] = &["--mesh", "builtin:torus", "--env", "builtin:area-lights"];
+/// Keeps a search to the ladder's four cheapest rungs (8x5x4, 12x7x5 at cube 8; 8x5x4 at 16;
+/// 16x9x6 at 8).
+const BUDGET: &[&str] = &["--max-cost", "400000"];
+
+fn target_run(target: &str, out: &Path) -> (i32, Value, String) {
+    let (code, stdout, stderr) =
+        run(penumbra().arg("fiv").args(TORUS).args(BUDGET).args(["--target-nrmse", target, "--json", "-o"]).arg(out));
+    (code, serde_json::from_str(&stdout).unwrap_or(Value::Null), stderr)
+}
+
+/// `verify fiv`'s nrmse of an asset against the source environment at cube size 32 (the
+/// search's reference).
+fn verified_nrmse(asset: &Path) -> f64 {
+    let v = verify_json(&[
+        "--fiv",
+        asset.to_str().unwrap(),
+        "--plane",
+        "--reference-env",
+        "builtin:area-lights",
+        "--reference-cube-size",
+        "32",
+    ]);
+    v["nrmse"].as_f64().unwrap()
+}
+
+fn plain_bake(settings: &Value, out: &Path) {
+    let s = settings["samples"].as_str().unwrap();
+    let c = settings["cube_size"].to_string();
+    bake_json(&[TORUS, &["--samples", s, "--cube-size", &c]].concat(), out);
+}
+
+#[test]
+fn target_nrmse_writes_the_cheapest_rung_that_meets_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // an unreachable target walks the whole (budgeted) ladder: exit 1, the best asset written
+    let best = dir.path().join("best.fivt");
+    let (code, v, stderr) = target_run("0.0001", &best);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("quality gate failed") && stderr.contains("no candidate"), "{stderr}");
+    for k in ["target", "chosen", "measured", "search_seconds", "candidates_tried", "target_met", "reason"] {
+        assert!(v.get(k).is_some(), "missing {k}: {v}");
+    }
+    assert_eq!(v["target_met"], false);
+    let tried = v["candidates_tried"].as_array().unwrap().clone();
+    assert_eq!(tried.len(), 4, "{v}");
+    let m: Vec<f64> = tried.iter().map(|t| t["measured"].as_f64().unwrap()).collect();
+    let lowest = m.iter().copied().fold(f64::INFINITY, f64::min);
+    assert_eq!(v["measured"].as_f64().unwrap(), lowest);
+    let plain = dir.path().join("plain-best.fivt");
+    plain_bake(&v["chosen"], &plain);
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&best).unwrap(), "best asset != its plain bake");
+    assert_eq!(listing(dir.path()).len(), 2, "candidate files left behind: {:?}", listing(dir.path()));
+
+    // a target between the first rung that beats every cheaper one and the best of those
+    let j =
+        (1..m.len()).find(|&j| m[j] < m[..j].iter().copied().fold(f64::INFINITY, f64::min)).expect("a rung improves");
+    let before = m[..j].iter().copied().fold(f64::INFINITY, f64::min);
+    let target = 0.5 * (m[j] + before);
+    let out = dir.path().join("t.fivt");
+    let (code, v, stderr) = target_run(&target.to_string(), &out);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(v["target_met"], true);
+    assert_eq!(v["chosen"], tried[j]["settings"]);
+    assert_eq!(v["measured"].as_f64().unwrap(), m[j]);
+    assert!(v["search_seconds"].as_f64().unwrap() > 0.0);
+    let now = v["candidates_tried"].as_array().unwrap();
+    assert_eq!(now.len(), j + 1, "the walk stops at the first rung that meets the target");
+    // minimal: every cheaper rung was tried and missed
+    for t in &now[..j] {
+        assert!(t["measured"].as_f64().unwrap() > target, "{t}");
+    }
+    // the written asset is the plain bake with the chosen knobs, byte for byte
+    let plain = dir.path().join("plain.fivt");
+    plain_bake(&v["chosen"], &plain);
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&out).unwrap(), "chosen asset != its plain bake");
+    // an independent verify: the chosen meets the target, the next cheaper rung does not
+    let e = verified_nrmse(&out);
+    assert!((e - m[j]).abs() <= 1e-9 * m[j], "verify {e} vs search {}", m[j]);
+    assert!(e <= target);
+    let cheaper = dir.path().join("cheaper.fivt");
+    plain_bake(&tried[j - 1]["settings"], &cheaper);
+    let ec = verified_nrmse(&cheaper);
+    assert!(ec > target, "the next cheaper rung {} meets the target: {ec}", tried[j - 1]["settings"]);
+}
+
+#[test]
+fn target_nrmse_with_its_knobs_or_a_bad_value_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.fivt");
+    for extra in [
+        &["--target-nrmse", "0.1", "--samples", "8x5x4"][..],
+        &["--target-nrmse", "0.1", "--cube-size", "8"],
+        &["--target-nrmse", "0"],
+        &["--target-nrmse", "-0.1"],
+        &["--target-nrmse", "NaN"],
+        &["--max-cost", "1000000"],
+        &["--target-nrmse", "0.1", "--max-cost", "10"],
+    ] {
+        let (code, _, stderr) = run(penumbra().arg("fiv").args(TORUS).args(extra).arg("-o").arg(&out));
+        assert_eq!(code, 2, "{extra:?}: {stderr}");
+        assert!(stderr.contains("error"), "{stderr}");
+        assert!(!out.exists(), "{extra:?} wrote an asset");
+    }
+    assert!(listing(dir.path()).is_empty(), "{:?}", listing(dir.path()));
+}
+
+#[test]
+fn bake_config_fiv_stage_takes_a_target_instead_of_knobs() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("scene.toml");
+    let write = |t: &str| {
+        std::fs::write(
+            &cfg,
+            format!("output_dir = \"out\"\n[[fiv]]\nmesh = \"builtin:torus\"\nenv = \"builtin:area-lights\"\n{t}\n"),
+        )
+        .unwrap()
+    };
+    // the ladder's first rung meets a loose target
+    write("target = 0.5");
+    let (code, stdout, stderr) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let st = &v["stages"][0];
+    assert_eq!(st["status"], "baked", "{st}");
+    let t = &st["metrics"]["target"];
+    assert_eq!(t["target"], 0.5);
+    assert_eq!(t["chosen"], serde_json::json!({"samples": "8x5x4", "cube_size": 8}));
+    assert!(t["measured"].as_f64().unwrap() <= 0.5);
+    let baked = std::fs::read(dir.path().join("out/torus.fivt")).unwrap();
+    let plain = dir.path().join("plain.fivt");
+    plain_bake(&t["chosen"], &plain);
+    assert!(std::fs::read(&plain).unwrap() == baked, "bake stage and `penumbra fiv` differ");
+    // unchanged: up to date, the search's record reported
+    let (_, stdout, _) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["stages"][0]["status"], "up-to-date");
+    assert_eq!(v["stages"][0]["metrics"]["target"]["chosen"], t["chosen"]);
+    // the target is part of the key
+    write("target = 0.4");
+    let (_, stdout, _) = run(penumbra().arg("bake").arg(&cfg).arg("--json"));
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["stages"][0]["status"], "baked");
+    // a target with a knob it chooses, or a bad target: exit 2 naming the key
+    for (extra, key) in [("target = 0.1\ncube_size = 8", "fiv[0].cube_size"), ("target = -1.0", "fiv[0].target")] {
+        write(extra);
+        let (code, _, stderr) = run(penumbra().arg("bake").arg(&cfg));
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(key), "{stderr}");
+    }
+}

@@ -405,6 +405,17 @@ pub struct FivBakeArgs {
     /// Bake only the azimuth slab K of N (0-based); `penumbra fiv merge` joins the slabs.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
+    /// Choose --samples and --cube-size: the cheapest rung of a fixed ladder (ordered by
+    /// A·P·K·6·S², docs/fiv.md "Targets") whose `verify fiv --plane` NRMSE is at most X, each
+    /// candidate measured against one reference; writes that asset (the bytes of the plain
+    /// bake with those knobs). None meets X: the best is written and the exit code is 1.
+    #[arg(long, value_name = "X", value_parser = crate::commands::target::parse_target,
+          conflicts_with_all = ["samples", "cube_size", "shard", "yaw_steps"])]
+    pub target_nrmse: Option<f64>,
+    /// With --target-nrmse: leave out ladder rungs whose cost A·P·K·6·S² (sample positions ×
+    /// environment directions) is above N.
+    #[arg(long, value_name = "N", requires = "target_nrmse")]
+    pub max_cost: Option<u64>,
     /// Output asset (.fivt), one per `--env`. Parent directories are created.
     #[arg(short = 'o', long, required = true)]
     pub output: Vec<PathBuf>,
@@ -526,6 +537,12 @@ pub struct VerifyFivArgs {
     /// error of treating each texel as one direction is measured too.
     #[arg(long, value_name = "N")]
     pub reference_cube_size: Option<usize>,
+    /// Cast the reference under this environment (the map the asset was baked from, checked
+    /// by its content hash, with the bake's rotation) resampled to --reference-cube-size
+    /// (default: the bake's cube size) instead of the stored cube: what `fiv --target-nrmse`
+    /// and `sweep fiv` measure against, so a coarse cube's resampling error is seen too.
+    #[arg(long, value_name = "ENV")]
+    pub reference_env: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,

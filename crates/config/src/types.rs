@@ -236,6 +236,11 @@ pub struct FivStage {
     /// Store the FIVs as f16 (default false).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half: Option<bool>,
+    /// Instead of `samples` and `cube_size`: the `verify fiv --plane` NRMSE to reach; the bake
+    /// walks `penumbra fiv --target-nrmse`'s ladder to the cheapest rung meeting it (exit 1,
+    /// the best asset written, when none does). A finite value > 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<f64>,
     /// Quality gate checked after the bake: `verify fiv --plane` with its defaults, exit 1
     /// above a bound (e.g. `gate = { max_nrmse = 0.05 }`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -451,6 +456,12 @@ pub struct DrtStage {
     /// `vector_rays`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub volume_res: Option<u32>,
+    /// Instead of `rays` and `clutter_rays`: the `verify drt` one-bounce error
+    /// `rel_error_mrt_drt` to reach; the bake walks `penumbra drt --target-error`'s ladder to
+    /// the cheapest rung meeting it (exit 1, the best asset written, when none does). A finite
+    /// value > 0; not with `vector_rays` or a state file's incremental re-bake.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<f64>,
     /// Quality gate checked after the bake: `verify drt` on the baked operators with its
     /// defaults, exit 1 when `rel_error_mrt_drt` is above `max_rel_error`.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -137,6 +137,16 @@ pub fn validate(c: &BakeConfig) -> Vec<Issue> {
                 }
             }
         }
+        if let Some(t) = f.target {
+            if crate::gate::bad_bound(t) {
+                out.push(issue(&key("target"), format!("{t} is out of range (allowed: a finite value > 0)")));
+            }
+            for (k, given) in [("samples", f.samples.is_some()), ("cube_size", f.cube_size.is_some())] {
+                if given {
+                    out.push(issue(&key(k), "`target` chooses it: give one of `target` or the knob"));
+                }
+            }
+        }
         if f.mesh.trim().is_empty() {
             out.push(issue(&key("mesh"), "must not be empty"));
         }
@@ -296,6 +306,22 @@ fn validate_drt(d: &crate::types::DrtStage, c: &crate::types::BakeConfig, out: &
             "drt.gate.max_rel_error",
             format!("{} is out of range (allowed: a finite value > 0)", g.max_rel_error),
         ));
+    }
+    if let Some(t) = d.target {
+        if crate::gate::bad_bound(t) {
+            out.push(issue("drt.target", format!("{t} is out of range (allowed: a finite value > 0)")));
+        }
+        for (k, given) in [("drt.rays", d.rays.is_some()), ("drt.clutter_rays", d.clutter_rays.is_some())] {
+            if given {
+                out.push(issue(k, "`target` chooses it: give one of `target` or the knob"));
+            }
+        }
+        if d.vector_rays.is_some() {
+            out.push(issue(
+                "drt.vector_rays",
+                "`target` chooses the scalar operators' knobs: bake the vector operators with the chosen `rays`",
+            ));
+        }
     }
     if c.mrt.is_none() {
         out.push(issue("drt", "[drt] needs the [mrt] stage (its dictionary)"));

@@ -70,8 +70,12 @@ fn cached_or_bake(
     };
     let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
     if !cache.force {
-        if let Some((existing, metrics)) = existing_cache_key(output) {
-            if existing == key {
+        if let Some((existing, mut metrics)) = existing_cache_key(output) {
+            let record = target_record(output, key, &existing);
+            if existing == key || record.is_some() {
+                if let (Some(rec), Some(m)) = (record, metrics.as_object_mut()) {
+                    m.insert("target".into(), rec);
+                }
                 let mut value = report("up-to-date", size(output), start.elapsed().as_secs_f64(), metrics);
                 if let Some(c) = cache.share_if_missing(key, output) {
                     value["cache"] = c;
@@ -94,6 +98,57 @@ fn cached_or_bake(
         value["cache"] = shared.unwrap_or(Value::Null);
     }
     Ok(StageReport { value })
+}
+
+/// Where a target stage records its search beside its output: the asset carries the key of
+/// the knobs the search chose (its bytes are the plain bake's), the record ties it to the
+/// stage's key (the target, the ladder and every other setting).
+fn target_record_path(output: &Path) -> std::path::PathBuf {
+    let name = output.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    output.with_file_name(format!("{name}.target.json"))
+}
+
+/// The search record of a target stage when it was made for `key` and the asset at the
+/// output is still the one it chose (`asset_key`).
+fn target_record(output: &Path, key: &str, asset_key: &str) -> Option<Value> {
+    let text = std::fs::read_to_string(target_record_path(output)).ok()?;
+    let v: Value = serde_json::from_str(&text).ok()?;
+    (v["stage_key"] == key && v["asset_key"] == asset_key).then(|| v["search"].clone())
+}
+
+/// Writes the search record of a target stage and returns its `search` object (the keys
+/// `target`, `metric`, `chosen`, `measured`, `target_met`, `search_seconds`,
+/// `candidates_tried`, `reason`).
+fn write_target_record(output: &Path, key: &str, report: &Value) -> Result<Value, CliError> {
+    let mut search = serde_json::Map::new();
+    for k in [
+        "target",
+        "metric",
+        "method",
+        "chosen",
+        "measured",
+        "target_met",
+        "search_seconds",
+        "candidates_tried",
+        "reason",
+    ] {
+        if let Some(v) = report.get(k) {
+            search.insert(k.into(), v.clone());
+        }
+    }
+    let search = Value::Object(search);
+    let rec = json!({"stage_key": key, "asset_key": report["cache_key"], "search": search});
+    write_atomic_text(
+        &target_record_path(output),
+        &(serde_json::to_string_pretty(&rec).map_err(CliError::internal)? + "\n"),
+    )?;
+    Ok(search)
+}
+
+/// The key of a target stage: the plain stage key of its template, the target and the ladder.
+fn target_stage_key(stage: &str, template_key: &str, target: f64, ladder: Value) -> String {
+    let v = json!({"stage": format!("{stage}-target"), "template": template_key, "target": target, "ladder": ladder});
+    blake3::hash(v.to_string().as_bytes()).to_hex().to_string()
 }
 
 fn run_tables(
@@ -235,6 +290,27 @@ fn run_fiv(
     job.nodes = f.node.as_ref().map(penumbra_config::NodeSelect::patterns).unwrap_or_default();
     let output = out_dir.join(f.output_name());
     let key = super::fiv::cache_key(&job)?;
+    if let Some(t) = f.target {
+        let t = super::target::check_target(t, &format!("{name}.target"))?;
+        let rungs: Vec<Value> =
+            super::fiv_target::ladder(None).iter().map(|r| json!([r.samples, r.cube_size])).collect();
+        let ladder = json!({"rungs": rungs, "receivers": super::fiv_target::RECEIVERS_PER_SIDE});
+        let skey = target_stage_key("fiv", &key, t, ladder);
+        return cached_or_bake(&name, "FIVT", &output, &skey, cache, || {
+            let o = super::fiv_target::search(&job, t, None, &output, mode)?;
+            let r = &o.report;
+            let search = write_target_record(&output, &skey, r)?;
+            Ok(Baked {
+                bytes: r["bytes"].as_u64().unwrap_or(0),
+                seconds: r["seconds"].as_f64().unwrap_or(0.0),
+                metrics: json!({
+                    "samples": r["samples"], "cube_size": r["cube_size"], "rays_traced": r["rays_traced"],
+                    "rays_hit": r["rays_hit"], "inside_samples": r["inside_samples"], "fiv_bytes": r["fiv_bytes"],
+                    "target": search,
+                }),
+            })
+        });
+    }
     cached_or_bake(&name, "FIVT", &output, &key, cache, || {
         let o = super::fiv::bake_to(&job, penumbra_fiv::Shard::WHOLE, &output, mode)?;
         let r = &o.report;
@@ -378,6 +454,55 @@ fn run_drt(
     };
     let key = cache_key(&sc, &params);
     let output = out_dir.join(d.output_name());
+    if let Some(t) = d.target {
+        let t = super::target::check_target(t, "drt.target")?;
+        let ladder = json!({"rays": super::drt_target::RAYS_RUNGS, "reference_rays": 512});
+        let skey = target_stage_key("drt", &key, t, ladder);
+        let dict_path = args.dict_path().to_path_buf();
+        return cached_or_bake("drt", "DRTO", &output, &skey, cache, || {
+            let o = super::drt_target::DrtTargetOptions {
+                dict_path: &dict_path,
+                lights: None,
+                reference_rays: 512,
+                max_rays: None,
+                max_depth: 8,
+            };
+            let out = super::drt_target::search(&sc, &params, t, &o, &output, mode)?;
+            let r = &out.report;
+            let mut rr = r.clone();
+            rr["cache_key"] = json!(cache_key(
+                &sc,
+                &penumbra_transport::drt::DrtParams {
+                    rays: r["chosen"]["rays"].as_u64().unwrap_or(0) as usize,
+                    clutter_rays: r["chosen"]["clutter_rays"].as_u64().unwrap_or(0) as usize,
+                    ..params.clone()
+                }
+            ));
+            let search = write_target_record(&output, &skey, &rr)?;
+            let mut metrics = r.clone();
+            for k in [
+                "target",
+                "metric",
+                "method",
+                "chosen",
+                "measured",
+                "target_met",
+                "search_seconds",
+                "candidates_tried",
+                "reason",
+            ] {
+                if let Some(m) = metrics.as_object_mut() {
+                    m.remove(k);
+                }
+            }
+            metrics["target"] = search;
+            Ok(Baked {
+                bytes: r["bytes"].as_u64().unwrap_or(0),
+                seconds: r["seconds"].as_f64().unwrap_or(0.0),
+                metrics,
+            })
+        });
+    }
     // the rays' sums beside the asset: moving clutter re-bakes only the rays it touches
     let state = out_dir.join(format!("{}.state", d.output_name()));
     cached_or_bake("drt", "DRTO", &output, &key, cache, || {
@@ -600,6 +725,15 @@ pub fn run(a: &BakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
                 r.value["output"].as_str().unwrap_or(""),
                 r.value["seconds"].as_f64().unwrap_or(0.0)
             );
+        }
+        // a target no rung met: the best asset is kept, and the bake fails like a gate
+        let tg = &r.value["metrics"]["target"];
+        if tg["target_met"] == false {
+            failed_gates.push(json!({"stage": label, "gate": "target", "metric": tg["metric"],
+                                     "value": tg["measured"], "max": tg["target"]}));
+            if !a.json {
+                eprintln!("{:<11} target not met: {}", label, tg["reason"].as_str().unwrap_or(""));
+            }
         }
         if let Some(g) = run_gate(&cfg, name, index, &out_dir, mode)? {
             for f in g["failures"].as_array().into_iter().flatten() {

@@ -376,6 +376,24 @@ pub struct DrtArgs {
     /// (the bytes of a full bake; docs/drt.md, "Incremental re-bakes").
     #[arg(long, value_name = "FILE")]
     pub state: Option<PathBuf>,
+    /// Choose --rays (the clutter rays equal to them): the fewest on a fixed ladder (32..8192,
+    /// doubling; docs/drt.md "Targets") whose `verify drt` one-bounce error rel_error_mrt_drt
+    /// is at most X, each candidate measured against one path-traced reference; writes that
+    /// asset (the bytes of the plain bake with `--rays R`). None meets X: the best is written
+    /// and the exit code is 1.
+    #[arg(long, value_name = "X", value_parser = crate::commands::target::parse_target,
+          conflicts_with_all = ["rays", "clutter_rays", "shard", "state", "vector"])]
+    pub target_error: Option<f64>,
+    /// With --target-error: leave out ladder rungs with more rays per texel than N.
+    #[arg(long, value_name = "N", requires = "target_error")]
+    pub max_rays: Option<u32>,
+    /// With --target-error: reference rays per receiver (`verify drt --reference-rays`; 512).
+    #[arg(long = "reference-rays", value_name = "N", requires = "target_error",
+          value_parser = clap::value_parser!(u32).range(4..=1_048_576))]
+    pub reference_rays: Option<u32>,
+    /// With --target-error: point lights of the comparison (`verify drt --lights`).
+    #[arg(long, value_name = "FILE", requires = "target_error")]
+    pub lights: Option<PathBuf>,
     /// Output asset (.drto).
     #[arg(short = 'o', long, required = true)]
     pub output: Option<PathBuf>,
@@ -689,6 +707,9 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     let sc = load_scene(&a.scene)?;
     let params = a.bake.params(a.scene.clutter_res, a.scene.clutter_basis_res);
     let output = a.output.as_deref().unwrap_or(Path::new("out.drto"));
+    if let Some(target) = a.target_error {
+        return run_target(a, &sc, &params, target, output, mode);
+    }
     let t0 = Instant::now();
     let (b, bytes, state, vector) = match &a.state {
         Some(p) => {
@@ -767,6 +788,48 @@ pub fn run(a: &DrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         }
     }
     Ok(ExitCode::Ok)
+}
+
+/// `penumbra drt --target-error X` ([`crate::commands::drt_target`]).
+#[allow(clippy::print_stderr)]
+fn run_target(
+    a: &DrtArgs,
+    sc: &DrtScene,
+    params: &DrtParams,
+    target: f64,
+    output: &Path,
+    mode: ProgressMode,
+) -> Result<ExitCode, CliError> {
+    let o = super::drt_target::DrtTargetOptions {
+        dict_path: a.scene.dict_path(),
+        lights: a.lights.as_deref(),
+        reference_rays: a.reference_rays.unwrap_or(512) as usize,
+        max_rays: a.max_rays.map(|r| r as usize),
+        max_depth: 8,
+    };
+    let out = super::drt_target::search(sc, params, target, &o, output, mode)?;
+    let v = &out.report;
+    if a.json {
+        print_json(v);
+    } else {
+        eprintln!(
+            "{} {}: rel_error_mrt_drt {:.5} against the target {target} (MRT alone {:.5}), {} candidates in {:.2} s; wrote {} ({} bytes)",
+            if out.met { "chose" } else { "target not met, wrote the best:" },
+            super::target::settings_text(&v["chosen"]),
+            v["measured"].as_f64().unwrap_or(f64::NAN),
+            v["rel_error_mrt"].as_f64().unwrap_or(f64::NAN),
+            v["candidates_tried"].as_array().map_or(0, Vec::len),
+            v["search_seconds"].as_f64().unwrap_or(f64::NAN),
+            output.display(),
+            v["bytes"],
+        );
+    }
+    if out.met {
+        Ok(ExitCode::Ok)
+    } else {
+        eprintln!("quality gate failed: {}", v["reason"].as_str().unwrap_or_default());
+        Ok(ExitCode::QualityGate)
+    }
 }
 
 /// Runs `penumbra drt merge`.

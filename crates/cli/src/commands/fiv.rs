@@ -453,6 +453,9 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         EnvRotateArg::Y180 => Rotation::Y180,
         EnvRotateArg::Z180 => Rotation::Z180,
     };
+    if let Some(target) = a.target_nrmse {
+        return run_target(a, mesh, rot, up, target, mode);
+    }
     let steps = a.yaw_steps as usize;
     if steps > 1 && up != UpAxis::Y {
         return Err(CliError::input(anyhow!("--yaw-steps turns the environment about +Y: it needs --up y")));
@@ -525,6 +528,51 @@ fn run_bake(a: &FivBakeArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         }
     }
     Ok(ExitCode::Ok)
+}
+
+/// `penumbra fiv --target-nrmse X` ([`crate::commands::fiv_target`]).
+#[allow(clippy::print_stderr)]
+fn run_target(
+    a: &FivBakeArgs,
+    mesh: &str,
+    rot: Rotation,
+    up: UpAxis,
+    target: f64,
+    mode: ProgressMode,
+) -> Result<ExitCode, CliError> {
+    if a.env.len() != 1 || a.output.len() != 1 {
+        return Err(CliError::input(anyhow!("--target-nrmse bakes one table: give one --env and one -o")));
+    }
+    // samples and cube size are the search's; the placeholders are replaced on every rung
+    let mut template =
+        FivJob::new(mesh, &a.env[0], rot, [32, 17, 15], a.r_min, a.r_max, up, 32, a.irradiance_size as usize, a.half)?;
+    template.nodes = a.node.clone();
+    let out = super::fiv_target::search(&template, target, a.max_cost, &a.output[0], mode)?;
+    let v = &out.report;
+    if a.json {
+        print_json(v);
+    } else {
+        eprintln!(
+            "{} {} ({}): nrmse {:.5} against the target {target}, {} candidates in {:.2} s; wrote {} ({} bytes)",
+            if out.met { "chose" } else { "target not met, wrote the best:" },
+            super::target::settings_text(&v["chosen"]),
+            v["samples"],
+            v["measured"].as_f64().unwrap_or(f64::NAN),
+            v["candidates_tried"].as_array().map_or(0, Vec::len),
+            v["search_seconds"].as_f64().unwrap_or(f64::NAN),
+            v["output"].as_str().unwrap_or_default(),
+            v["bytes"],
+        );
+        for w in v["warnings"].as_array().into_iter().flatten() {
+            eprintln!("warning: {}", w.as_str().unwrap_or_default());
+        }
+    }
+    if out.met {
+        Ok(ExitCode::Ok)
+    } else {
+        eprintln!("quality gate failed: {}", v["reason"].as_str().unwrap_or_default());
+        Ok(ExitCode::QualityGate)
+    }
 }
 
 fn run_merge(a: &ShardMergeArgs) -> Result<ExitCode, CliError> {

@@ -551,6 +551,7 @@ fn make_plan(a: &PlanArgs, scene: &Scene) -> Result<Plan, CliError> {
                     cube_size: None,
                     irradiance_size: None,
                     half: None,
+                    target: None,
                     gate: None,
                     output: Some(unique(file_stem(&e.name), "fivt")),
                 });
@@ -645,6 +646,7 @@ fn make_plan(a: &PlanArgs, scene: &Scene) -> Result<Plan, CliError> {
             inpaint: None,
             vector_rays: None,
             volume_res: None,
+            target: None,
             gate: None,
             output: None,
         }),

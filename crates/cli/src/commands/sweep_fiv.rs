@@ -17,7 +17,8 @@ use crate::commands::fiv::{FivJob, Input, bake_prepared, cache_key, load_env, lo
 use crate::commands::print_json;
 use crate::commands::sweep::{OutputGuard, csv_text, parse_list, with_front, write_outputs};
 use crate::commands::verify_fiv::{
-    ReceiverSpec, metrics, plane_receivers, receiver_masks, reference_irradiance, timed_runtime,
+    ReceiverSpec, Receivers, metrics, plane_receivers, receiver_masks, reference_irradiance, runtime_irradiance,
+    timed_runtime,
 };
 use crate::exit::{CliError, ExitCode};
 use crate::progress::ProgressMode;
@@ -29,7 +30,7 @@ use penumbra_fiv::asset::read_meta;
 use penumbra_fiv::reference::Placed;
 use penumbra_fiv::{Lighting, Occluder, Shard, UpAxis};
 use penumbra_geometry::env::Rotation;
-use penumbra_geometry::{CubeMap, WindingNumber};
+use penumbra_geometry::{CubeMap, TriMesh, WindingNumber};
 use penumbra_runtime::fiv::{FivTable, Partial, PlacedOccluder, ShadeOptions};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -150,28 +151,17 @@ pub fn run(a: &SweepFivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
     for w in mesh.warnings.iter().chain(&envs[0].1.warnings) {
         eprintln!("warning: {w}");
     }
-    let frame = occ.frame();
-    let recv = plane_receivers(
-        &ReceiverSpec { resolution: Some(a.resolution as usize), ..ReceiverSpec::default() },
-        a.distance,
-        up,
-        &[(&mesh.data, [0.0; 3], frame.center, frame.radius)],
-    )?;
+    let ref_light = &envs.iter().find(|e| e.0 == ref_size).ok_or_else(|| CliError::internal(anyhow!("no ref env")))?.2;
     let setup_seconds = t_setup.elapsed().as_secs_f64();
     let mut guard = OutputGuard::create(&a.output)?;
 
     // the one reference of the sweep
     let t_ref = Instant::now();
-    let ball = penumbra_geometry::min_enclosing_ball(&mesh.data.positions).map(|b| (b.center, b.radius));
-    let refs = [Placed { bvh: occ.bvh(), offset: [0.0; 3], ball }];
-    let ref_light = &envs.iter().find(|e| e.0 == ref_size).ok_or_else(|| CliError::internal(anyhow!("no ref env")))?.2;
-    let rf = reference_irradiance(ref_light, &refs, &recv);
-    let winding = WindingNumber::new(&mesh.data);
-    let (inside, covered) = receiver_masks(&recv, |p| winding.is_inside(p), &refs);
+    let bench = PlaneBench::new(&mesh.data, &occ, ref_light, a.resolution as usize, a.distance, up)?;
     let reference_seconds = t_ref.elapsed().as_secs_f64();
     eprintln!(
         "reference: {} receivers, cube size {ref_size}, {reference_seconds:.2} s (setup {setup_seconds:.2} s)",
-        recv.points.len()
+        bench.recv.points.len()
     );
 
     let mut rows: Vec<Value> = Vec::new();
@@ -196,21 +186,10 @@ pub fn run(a: &SweepFivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         )?
         .remove(0);
         // measured as `verify fiv --plane` measures it, against the shared reference
-        let file = AssetFile::open(&path).with_context(|| format!("cannot read back {}", path.display()))?;
-        let asset = file.asset();
-        let meta = read_meta(&asset).map_err(|e| CliError::internal(anyhow!("{}: {e}", path.display())))?;
-        let table = FivTable::from_asset(&asset).map_err(|e| CliError::internal(anyhow!("{}: {e}", path.display())))?;
-        let occs = [PlacedOccluder { table: &table, center: meta.frame.center.map(|v| v as f32) }];
-        let opts = ShadeOptions { partial: Partial::None, overlap: true };
-        let (rt, ns) = timed_runtime(&occs, &recv, opts);
-        let (e_all, max_abs, n_all) = metrics(&rt, &rf, |r| !inside[r]);
-        let (e_vis, _, _) = metrics(&rt, &rf, |r| !inside[r] && !covered[r]);
-        let dist = |p: &[f64; 3]| {
-            let c = meta.frame.center;
-            ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt() / meta.frame.radius
-        };
-        let beyond: Vec<bool> = recv.points.iter().map(|p| dist(p) > l.r_max).collect();
-        let (e_beyond, _, n_beyond) = metrics(&rt, &rf, |r| !inside[r] && beyond[r]);
+        let m = bench.measure(&path, true)?;
+        let (e_all, e_vis, max_abs, n_all, ns) =
+            (m.nrmse, m.nrmse_visible, m.max_abs_error, m.receivers, m.ns_per_receiver);
+        let (e_beyond, n_beyond) = (m.nrmse_beyond_r_max, m.receivers_beyond_r_max);
         let v = &out.report;
         eprintln!(
             "{}x{}x{} r {}..{} cube {}: {:.2} s, {} bytes, NRMSE {e_all:.4} (visible {e_vis:.4}), {ns:.0} ns/receiver",
@@ -314,8 +293,8 @@ pub fn run(a: &SweepFivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         "mesh": a.mesh,
         "env": a.env,
         "env_rotate": rot.name(),
-        "receivers": recv.points.len(),
-        "receivers_inside": inside.iter().filter(|&&x| x).count(),
+        "receivers": bench.recv.points.len(),
+        "receivers_inside": bench.inside.iter().filter(|&&x| x).count(),
         "reference_cube_size": ref_size,
         "reference_seconds": reference_seconds,
         "setup_seconds": setup_seconds,
@@ -338,4 +317,100 @@ pub fn run(a: &SweepFivArgs, mode: ProgressMode) -> Result<ExitCode, CliError> {
         );
     }
     Ok(ExitCode::Ok)
+}
+
+/// Plane receivers under one occluder with their brute-force reference irradiance and masks,
+/// computed once: what `sweep fiv` and `fiv --target-nrmse` measure every candidate asset
+/// against, as `verify fiv --plane` measures it (same receivers, runtime, masks and metrics).
+pub(crate) struct PlaneBench {
+    /// The receivers (`verify fiv --plane`'s square of ±(3 + D)R).
+    pub(crate) recv: Receivers,
+    /// The reference irradiance per receiver.
+    pub(crate) rf: Vec<[f64; 3]>,
+    /// Receivers inside the occluder (left out of every metric).
+    pub(crate) inside: Vec<bool>,
+    /// Receivers covered from straight above (left out of `nrmse_visible`).
+    pub(crate) covered: Vec<bool>,
+}
+
+/// What [`PlaneBench::measure`] reports of one asset.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PlaneMetrics {
+    /// `verify fiv`'s `nrmse` (every receiver outside the occluder).
+    pub(crate) nrmse: f64,
+    /// `verify fiv`'s `nrmse_visible`.
+    pub(crate) nrmse_visible: f64,
+    /// `verify fiv`'s `max_abs_error`.
+    pub(crate) max_abs_error: f64,
+    /// Receivers in `nrmse`.
+    pub(crate) receivers: usize,
+    /// Runtime nanoseconds per receiver (one core; NaN when not timed).
+    pub(crate) ns_per_receiver: f64,
+    /// NRMSE over the receivers beyond the outermost shell.
+    pub(crate) nrmse_beyond_r_max: f64,
+    /// Receivers beyond the outermost shell.
+    pub(crate) receivers_beyond_r_max: usize,
+}
+
+impl PlaneBench {
+    /// `resolution`² plane receivers (optionally `distance`·R lower) under `mesh` and the
+    /// reference irradiance under `light` (the environment of the reference).
+    pub(crate) fn new(
+        mesh: &TriMesh,
+        occ: &Occluder,
+        light: &Lighting,
+        resolution: usize,
+        distance: Option<f64>,
+        up: UpAxis,
+    ) -> Result<Self, CliError> {
+        let frame = occ.frame();
+        let recv = plane_receivers(
+            &ReceiverSpec { resolution: Some(resolution), ..ReceiverSpec::default() },
+            distance,
+            up,
+            &[(mesh, [0.0; 3], frame.center, frame.radius)],
+        )?;
+        let ball = penumbra_geometry::min_enclosing_ball(&mesh.positions).map(|b| (b.center, b.radius));
+        let refs = [Placed { bvh: occ.bvh(), offset: [0.0; 3], ball }];
+        let rf = reference_irradiance(light, &refs, &recv);
+        let winding = WindingNumber::new(mesh);
+        let (inside, covered) = receiver_masks(&recv, |p| winding.is_inside(p), &refs);
+        Ok(Self { recv, rf, inside, covered })
+    }
+
+    /// Reads the asset at `path` and measures its runtime shadow against the reference
+    /// (`timed`: repeated passes for `ns_per_receiver`, else one pass).
+    pub(crate) fn measure(&self, path: &std::path::Path, timed: bool) -> Result<PlaneMetrics, CliError> {
+        let file = AssetFile::open(path).with_context(|| format!("cannot read back {}", path.display()))?;
+        let asset = file.asset();
+        let meta = read_meta(&asset).map_err(|e| CliError::internal(anyhow!("{}: {e}", path.display())))?;
+        let table = FivTable::from_asset(&asset).map_err(|e| CliError::internal(anyhow!("{}: {e}", path.display())))?;
+        let occs = [PlacedOccluder { table: &table, center: meta.frame.center.map(|v| v as f32) }];
+        let opts = ShadeOptions { partial: Partial::None, overlap: true };
+        let (rt, ns) = if timed {
+            timed_runtime(&occs, &self.recv, opts)
+        } else {
+            let mut rt = Vec::with_capacity(self.recv.points.len());
+            runtime_irradiance(&occs, &self.recv, opts, &mut rt);
+            (rt, f64::NAN)
+        };
+        let (inside, covered, rf) = (&self.inside, &self.covered, &self.rf);
+        let (e_all, max_abs, n_all) = metrics(&rt, rf, |r| !inside[r]);
+        let (e_vis, _, _) = metrics(&rt, rf, |r| !inside[r] && !covered[r]);
+        let dist = |p: &[f64; 3]| {
+            let c = meta.frame.center;
+            ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt() / meta.frame.radius
+        };
+        let beyond: Vec<bool> = self.recv.points.iter().map(|p| dist(p) > meta.params.r_max).collect();
+        let (e_beyond, _, n_beyond) = metrics(&rt, rf, |r| !inside[r] && beyond[r]);
+        Ok(PlaneMetrics {
+            nrmse: e_all,
+            nrmse_visible: e_vis,
+            max_abs_error: max_abs,
+            receivers: n_all,
+            ns_per_receiver: ns,
+            nrmse_beyond_r_max: e_beyond,
+            receivers_beyond_r_max: n_beyond,
+        })
+    }
 }

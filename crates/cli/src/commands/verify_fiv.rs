@@ -420,12 +420,38 @@ pub(crate) fn run_report(a: &VerifyFivArgs) -> Result<(ExitCode, Value), CliErro
     let cube_size = metas[0].params.cube_size;
     let env_cube = ref_env(&files[0], &a.fivs[0], cube_size)?;
     let ref_size = a.reference_cube_size.unwrap_or(cube_size);
-    if ref_size % cube_size != 0 || !(1..=512).contains(&ref_size) {
-        return Err(CliError::input(anyhow!(
-            "--reference-cube-size {ref_size} must be a multiple of the bake's cube size {cube_size} (allowed: up to 512)"
-        )));
-    }
-    let lighting = Lighting::new(supersample(&env_cube, ref_size / cube_size));
+    let ref_cube = if let Some(spec) = &a.reference_env {
+        if !(1..=512).contains(&ref_size) {
+            return Err(CliError::input(anyhow!(
+                "--reference-cube-size {ref_size} is out of range (allowed: 1..=512)"
+            )));
+        }
+        let env = &metas[0].inputs["env"];
+        let hash = crate::commands::fiv::spec_hash(spec)?;
+        if env["blake3"].as_str() != Some(hash.as_str()) {
+            return Err(CliError::input(anyhow!(
+                "--reference-env {spec}: not the environment {} was baked under ({})",
+                a.fivs[0].display(),
+                env["name"]
+            )));
+        }
+        if env.get("yaw_turns").is_some() {
+            return Err(CliError::input(anyhow!(
+                "--reference-env: {} was baked under a turned environment (--yaw-steps); verify it against its stored cube",
+                a.fivs[0].display()
+            )));
+        }
+        let rot = env["rotate"].as_str().and_then(penumbra_geometry::env::Rotation::parse).unwrap_or_default();
+        crate::commands::fiv::load_env(spec, rot, ref_size)?.data
+    } else {
+        if ref_size % cube_size != 0 || !(1..=512).contains(&ref_size) {
+            return Err(CliError::input(anyhow!(
+                "--reference-cube-size {ref_size} must be a multiple of the bake's cube size {cube_size} (allowed: up to 512)"
+            )));
+        }
+        supersample(&env_cube, ref_size / cube_size)
+    };
+    let lighting = Lighting::new(ref_cube);
     let meshes: Vec<TriMesh> = files.iter().zip(&a.fivs).map(|(f, p)| ref_mesh(f, p)).collect::<Result<_, _>>()?;
     let specs: Vec<PlacedSpec> = if placement.occluder.is_empty() {
         (0..files.len()).map(|i| PlacedSpec { fiv: Some(i), offset: [0.0; 3] }).collect()
@@ -612,6 +638,7 @@ pub(crate) fn run_report(a: &VerifyFivArgs) -> Result<(ExitCode, Value), CliErro
         "receiver_distance_range": [dmin, dmax],
         "distance": a.distance,
         "reference_cube_size": ref_size,
+        "reference_env": a.reference_env,
         "cube_size": cube_size,
         "warnings": warnings,
         "receiver_kind": kind,
