@@ -397,3 +397,63 @@ fn runtime_texel_world_frames_match_the_level_geometry() {
     }
     assert_eq!(i, w.len());
 }
+
+#[test]
+fn warped_blocks_are_rebaked_beyond_the_threshold_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = small_dict(dir.path());
+    let p = |n: &str| dir.path().join(n);
+    // an unwarped corridor: the flag changes nothing, byte for byte (kind version 1)
+    let toml = p("c3.toml");
+    level_json(&["--corridor", "3", "--write-level", toml.to_str().unwrap()], &d, &p("a.mrtl"));
+    let v = level_json(&["--corridor", "3", "--rebake-warps-above", "1.25"], &d, &p("b.mrtl"));
+    assert_eq!(std::fs::read(p("a.mrtl")).unwrap(), std::fs::read(p("b.mrtl")).unwrap());
+    assert_eq!(v["warps"]["distinct"], 0);
+    // the middle block stretched ×2
+    let text = std::fs::read_to_string(&toml)
+        .unwrap()
+        .replace("translation = [0.5, 0.5, 1.5]", "translation = [0.5, 0.5, 2.0]\nscale = [1.0, 1.0, 2.0]")
+        .replace("translation = [0.5, 0.5, 2.5]", "translation = [0.5, 0.5, 3.5]");
+    assert!(text.contains("scale"), "{text}");
+    let warped = p("w.toml");
+    std::fs::write(&warped, text).unwrap();
+    let w = warped.to_str().unwrap();
+    let v = level_json(&[w, "--rebake-warps-above", "1.25", "--warp-rays", "256"], &d, &p("w.mrtl"));
+    assert_eq!(v["warps"]["distinct"], 1, "{v}");
+    assert_eq!(v["warps"]["blocks_rebaked"], 1, "{v}");
+    assert!(v["warps"]["seconds_per_warp"].as_f64().unwrap() > 0.0);
+    // beyond the threshold only: S = 2 keeps the ×2 block on the dictionary's operators
+    let v = level_json(&[w, "--rebake-warps-above", "2"], &d, &p("w2.mrtl"));
+    assert_eq!(v["warps"]["distinct"], 0, "{v}");
+    let v = level_json(&[w], &d, &p("w1.mrtl"));
+    assert_eq!(std::fs::read(p("w1.mrtl")).unwrap(), std::fs::read(p("w2.mrtl")).unwrap(), "{v}");
+    // inspect shows the kind version and the warp sections
+    let (code, stdout, stderr) = run(penumbra().args(["inspect", "--json"]).arg(p("w.mrtl")));
+    assert_eq!(code, 0, "{stderr}");
+    for s in ["block_warp", "warp_shapes", "warp.0.u_b", "warp.0.t_d2b", "warp.0.to_dict_b", "stretched-prior"] {
+        assert!(stdout.contains(s), "{s} missing from inspect");
+    }
+    let meta: Value = serde_json::from_str(&stdout).unwrap();
+    assert!(stdout.contains("\"kind_version\":2") || meta.to_string().contains("\"kind_version\":2"));
+    // verify mrt: both errors on the warped level; the re-baked asset and the old (kind
+    // version 1) one verify as they are
+    let (code, stdout, stderr) = run(penumbra()
+        .args(["verify", "mrt", "--rays", "64", "--bounces", "2", "--json", "--warp-rays", "256"])
+        .args(["--rebake-warps-above", "1.25", "--level", w, "--dict"])
+        .arg(&d));
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    for k in ["rel_error_warped_unit_ops", "rel_error_warped_rebaked", "rel_error_warped_rebaked_multi_bounce"] {
+        assert!(v[k].as_f64().is_some_and(|x| x.is_finite() && x > 0.0), "{k}: {v}");
+    }
+    assert_eq!(v["max_stretch"], 2.0);
+    assert!(v["per_block"][1]["one_bounce_rebaked"].is_number());
+    for lv in ["w.mrtl", "a.mrtl"] {
+        let (code, _, stderr) = run(penumbra()
+            .args(["verify", "mrt", "--rays", "16", "--bounces", "1", "--level"])
+            .arg(p(lv))
+            .arg("--dict")
+            .arg(&d));
+        assert_eq!(code, 0, "{lv}: {stderr}");
+    }
+}

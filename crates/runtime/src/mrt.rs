@@ -250,9 +250,28 @@ pub struct MrtRecord {
     pub src: u32,
 }
 
+/// Re-baked operators of one (shape, warp) of a level (`MRTL` kind version 2, optional
+/// sections `warp.<i>.u_b`, `warp.<i>.t_d2b`, `warp.<i>.to_dict_b`; docs/mrt.md, "Warps
+/// that stay accurate").
+#[derive(Debug, Clone, Copy)]
+pub struct MrtWarp<'a> {
+    /// Dictionary shape.
+    pub shape: usize,
+    /// `U_b'` (n × k_b of the shape, row-major).
+    pub u_b: &'a [f32],
+    /// `T_d→b'` (k_b × n).
+    pub t_d2b: &'a [f32],
+    /// `X` (k_b × k_b): the dictionary's `b = X b'`.
+    pub to_dict_b: &'a [f32],
+}
+
 /// A level's runtime view (`MRTL`).
 #[derive(Debug, Clone)]
 pub struct MrtLevel<'a> {
+    /// Re-baked warps (empty in kind version 1).
+    pub warps: Vec<MrtWarp<'a>>,
+    /// Per block: its index in `warps`, or `None` (the dictionary's operators).
+    pub block_warp: Vec<Option<usize>>,
     /// Per block: dictionary shape index.
     pub shapes: Vec<usize>,
     /// Per block: quarter turns about +Y.
@@ -342,8 +361,49 @@ impl<'a> MrtLevel<'a> {
                 return Err(bad(format!("atlas pad record {p:?} out of range")));
             }
         }
-        Ok(Self { shapes, rotations, xform, records, t_b2r, k_b, atlas, tiles, pad })
+        let (warps, block_warp) = warps_of(a, d, &shapes)?;
+        Ok(Self { warps, block_warp, shapes, rotations, xform, records, t_b2r, k_b, atlas, tiles, pad })
     }
+}
+
+/// The optional warp sections: `warp_shapes` (u32 [w]), `block_warp` (u32 [blocks],
+/// `0xFFFF_FFFF` = none) and per warp `warp.<i>.u_b` [n, k_b], `warp.<i>.t_d2b` [k_b, n],
+/// `warp.<i>.to_dict_b` [k_b, k_b] with the shape's `n` and `k_b`.
+#[allow(clippy::type_complexity)]
+fn warps_of<'a>(
+    a: &Asset<'a>,
+    d: &MrtDictionary<'_>,
+    shapes: &[usize],
+) -> Result<(Vec<MrtWarp<'a>>, Vec<Option<usize>>), RuntimeError> {
+    let nb = shapes.len();
+    let Some(_) = a.section("block_warp") else { return Ok((Vec::new(), vec![None; nb])) };
+    let (bw, bd) = u32_section(a, "block_warp")?;
+    let (ws, wd) = u32_section(a, "warp_shapes")?;
+    if bd != [nb] || wd.len() != 1 {
+        return Err(bad("block_warp / warp_shapes: bad dims"));
+    }
+    let mut warps = Vec::with_capacity(ws.len());
+    for (i, &s) in ws.iter().enumerate() {
+        let sh = d.shapes.get(s as usize).ok_or_else(|| bad(format!("warp {i}: shape {s} out of range")))?;
+        let (n, kb) = (sh.n, sh.k_b);
+        warps.push(MrtWarp {
+            shape: s as usize,
+            u_b: f32_section(a, &format!("warp.{i}.u_b"), &[n, kb])?,
+            t_d2b: f32_section(a, &format!("warp.{i}.t_d2b"), &[kb, n])?,
+            to_dict_b: f32_section(a, &format!("warp.{i}.to_dict_b"), &[kb, kb])?,
+        });
+    }
+    let mut block_warp = Vec::with_capacity(nb);
+    for (x, &w) in bw.iter().enumerate() {
+        if w == u32::MAX {
+            block_warp.push(None);
+        } else if warps.get(w as usize).is_some_and(|wp| wp.shape == shapes[x]) {
+            block_warp.push(Some(w as usize));
+        } else {
+            return Err(bad(format!("block_warp[{x}] = {w}: no warp of the block's shape")));
+        }
+    }
+    Ok((warps, block_warp))
 }
 
 /// The evaluator: buffers sized once for a level.
@@ -450,11 +510,14 @@ impl<'a> MrtRuntime<'a> {
         // 1. b per block, per face
         for (x, &s) in self.level.shapes.iter().enumerate() {
             let sh = &self.dict.shapes[s];
+            // a re-baked warp: its own T_d→b', U_b', then b = X b' (and b_g = X b'_g)
+            let warp = self.level.block_warp[x].map(|w| self.level.warps[w]);
+            let (t_d2b, u_b) = warp.map_or((sh.t_d2b, sh.u_b), |w| (w.t_d2b, w.u_b));
             let l = &l_d[self.offsets[x]..self.offsets[x] + sh.n];
             let bf = &mut self.b_face[x * 6 * kb..(x + 1) * 6 * kb];
             bf.iter_mut().for_each(|v| *v = 0.0);
             for i in 0..sh.k_b {
-                let row = &sh.t_d2b[i * sh.n..(i + 1) * sh.n];
+                let row = &t_d2b[i * sh.n..(i + 1) * sh.n];
                 for slot in 0..sh.faces.len() {
                     let range = slot * r2..(slot + 1) * r2;
                     bf[slot * kb + i] = dot(&row[range.clone()], &l[range]);
@@ -476,7 +539,22 @@ impl<'a> MrtRuntime<'a> {
                     *e = if self.dict.exclude_same_face { b[i] - bf[slot * kb + i] } else { b[i] };
                 }
                 for t in slot * r2..(slot + 1) * r2 {
-                    o[t] = dot(&sh.u_b[t * sh.k_b..t * sh.k_b + eff.len()], eff);
+                    o[t] = dot(&u_b[t * sh.k_b..t * sh.k_b + eff.len()], eff);
+                }
+            }
+            if let Some(w) = warp {
+                let k = sh.k_b.min(256);
+                let mut tmp = [0.0f32; 256];
+                let xm = w.to_dict_b;
+                let mut to_dict = |v: &mut [f32]| {
+                    tmp[..k].copy_from_slice(&v[..k]);
+                    for (i, vi) in v[..k].iter_mut().enumerate() {
+                        *vi = dot(&xm[i * sh.k_b..i * sh.k_b + k], &tmp[..k]);
+                    }
+                };
+                to_dict(b);
+                for slot in 0..sh.faces.len() {
+                    to_dict(&mut bf[slot * kb..slot * kb + k]);
                 }
             }
         }

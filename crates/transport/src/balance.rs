@@ -67,6 +67,14 @@ pub struct BalanceStats {
 /// `g_j`: the fraction of texel `j`'s cosine-weighted emission that lands on a wall of its
 /// shape, area-averaged over the texel (module docs).
 pub fn wall_fractions(tex: &Texels) -> Vec<f64> {
+    wall_fractions_scaled(tex, [1.0; 3])
+}
+
+/// [`wall_fractions`] of the shape stretched to the box `scale` (a warped block,
+/// [`crate::warp`]): positions and openings scaled per axis (× 1.0 is exact: the unit
+/// shape's values are bit for bit [`wall_fractions`]'s).
+pub fn wall_fractions_scaled(tex: &Texels, scale: [f64; 3]) -> Vec<f64> {
+    let sc = |p: [f64; 3]| [p[0] * scale[0], p[1] * scale[1], p[2] * scale[2]];
     // 1 − (what leaves through the openings): exactly 1 in a closed shape, and 1–4 polygons
     // per point instead of 3–5 walls
     let openings: Vec<(usize, [[f64; 3]; 4])> = tex
@@ -74,7 +82,15 @@ pub fn wall_fractions(tex: &Texels) -> Vec<f64> {
         .missing_faces()
         .into_iter()
         .map(|g| {
-            (g, [face_point(g, 0.0, 0.0), face_point(g, 1.0, 0.0), face_point(g, 1.0, 1.0), face_point(g, 0.0, 1.0)])
+            (
+                g,
+                [
+                    sc(face_point(g, 0.0, 0.0)),
+                    sc(face_point(g, 1.0, 0.0)),
+                    sc(face_point(g, 1.0, 1.0)),
+                    sc(face_point(g, 0.0, 1.0)),
+                ],
+            )
         })
         .collect();
     if openings.is_empty() {
@@ -90,7 +106,7 @@ pub fn wall_fractions(tex: &Texels) -> Vec<f64> {
             let mut acc = 0.0;
             for (u, wu) in gl.on_interval(i as f64 / r, (i + 1) as f64 / r) {
                 for (v, wv) in gl.on_interval(j as f64 / r, (j + 1) as f64 / r) {
-                    let p = face_point(f, u, v);
+                    let p = sc(face_point(f, u, v));
                     let ff: f64 = openings.iter().map(|(_, poly)| point_polygon_form_factor(p, n, poly)).sum();
                     acc += wu * wv * ff;
                 }

@@ -26,6 +26,10 @@ use std::collections::BTreeMap;
 /// Kind version of the `MRTL` sections.
 pub const MRTL_KIND_VERSION: u32 = 1;
 
+/// Kind version of an `MRTL` with re-baked warps (optional sections: a version-1 reader
+/// skips them and applies the dictionary's operators to every block).
+pub const MRTL_KIND_VERSION_WARPS: u32 = 2;
+
 /// Default depth limit (interfaces crossed).
 pub const DEFAULT_MAX_DEPTH: usize = 8;
 
@@ -50,6 +54,11 @@ pub struct DictOps {
     pub crc32c: u32,
     /// The albedo the dictionary was baked with (`params.albedo`).
     pub albedo: f64,
+    /// Per shape: `(L_imp, T_d→b)` when the dictionary has `<shape>.l_imp` (kind version 3 and
+    /// later): what a warp re-bake ([`crate::warp`]) starts from.
+    pub shape_ops: Vec<Option<(Mat<f64>, Mat<f64>)>>,
+    /// The dictionary's `meta.params`.
+    pub params: serde_json::Value,
 }
 
 fn aerr(m: impl core::fmt::Display) -> TransportError {
@@ -119,7 +128,18 @@ impl DictOps {
         let t_rlf2r = read_mat(a, "iface.t_rlf2r")?;
         let crc32c = penumbra_asset::crc32c(a.bytes());
         let albedo = meta["params"]["albedo"].as_f64().unwrap_or(1.0);
-        Ok(Self { names, missing, k_b, face_res, r_b2rlf, r_turn, t_rlf2r, crc32c, albedo })
+        let shape_ops = names
+            .iter()
+            .map(|n| {
+                let l = format!("{n}.l_imp");
+                if a.section(&l).is_none() {
+                    return Ok(None);
+                }
+                Ok(Some((read_mat(a, &l)?, read_mat(a, &format!("{n}.t_d2b"))?)))
+            })
+            .collect::<Result<Vec<_>, TransportError>>()?;
+        let params = meta["params"].clone();
+        Ok(Self { names, missing, k_b, face_res, r_b2rlf, r_turn, t_rlf2r, crc32c, albedo, shape_ops, params })
     }
 
     /// Largest `k_b`.
@@ -395,11 +415,28 @@ pub fn to_asset(
     level_json: serde_json::Value,
     cache_key: Option<&str>,
 ) -> Result<AssetBuilder, TransportError> {
+    to_asset_with_warps(level, links, d, b, level_json, cache_key, None)
+}
+
+/// [`to_asset`] with re-baked warps ([`crate::warp::LevelWarps`]): with at least one warp the
+/// asset is kind version [`MRTL_KIND_VERSION_WARPS`] with the optional sections `warp_shapes`,
+/// `block_warp` and `warp.<i>.u_b`, `warp.<i>.t_d2b`, `warp.<i>.to_dict_b`, and `meta.warps`;
+/// without one (`None`, or no block beyond the threshold) the bytes of [`to_asset`].
+pub fn to_asset_with_warps(
+    level: &Level,
+    links: &Links,
+    d: &DictOps,
+    b: &LevelBake,
+    level_json: serde_json::Value,
+    cache_key: Option<&str>,
+    warps: Option<&crate::warp::LevelWarps>,
+) -> Result<AssetBuilder, TransportError> {
+    let warps = warps.filter(|w| !w.entries.is_empty());
     let kb = d.k_b_max();
     let kr = d.k_r();
-    let meta = json!({
+    let mut meta = json!({
         "kind": "MRTL",
-        "kind_version": MRTL_KIND_VERSION,
+        "kind_version": if warps.is_some() { MRTL_KIND_VERSION_WARPS } else { MRTL_KIND_VERSION },
         "tool": concat!("penumbra ", env!("CARGO_PKG_VERSION")),
         "convention": {
             "transform": "block-local p in [0,1]^3 -> translation + R_q(scale * (p - 1/2)); R_q: q quarter turns about +Y, (x,y,z) -> (z,y,-x) per turn",
@@ -418,6 +455,9 @@ pub fn to_asset(
         "cache_key": cache_key,
         "metrics": b.metrics,
     });
+    if let Some(w) = warps {
+        meta["warps"] = w.meta();
+    }
     let mut a = AssetBuilder::new(Kind::MRTL);
     a.add_json("meta", &serde_json::to_string(&meta).map_err(werr)?).map_err(werr)?;
     let nb = level.blocks.len();
@@ -447,6 +487,20 @@ pub fn to_asset(
     a.add_u32("atlas_tiles", &[b.atlas.tiles.len(), 4], &tiles).map_err(werr)?;
     let pad: Vec<u32> = b.atlas.pad.iter().flatten().copied().collect();
     a.add_u32("atlas_pad", &[b.atlas.pad.len(), 3], &pad).map_err(werr)?;
+    if let Some(w) = warps {
+        let ws: Vec<u32> = w.entries.iter().map(|e| e.shape as u32).collect();
+        a.add_u32("warp_shapes", &[ws.len()], &ws).map_err(werr)?;
+        let bw: Vec<u32> = w.block_warp.iter().map(|x| x.map_or(u32::MAX, |i| i as u32)).collect();
+        a.add_u32("block_warp", &[bw.len()], &bw).map_err(werr)?;
+        let m = |m: &Mat<f64>| f32s((0..m.nrows()).flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)])));
+        for (i, e) in w.entries.iter().enumerate() {
+            let r = &e.ops.reduced;
+            a.add_f32(&format!("warp.{i}.u_b"), &[r.u_b.nrows(), r.u_b.ncols()], &m(&r.u_b)).map_err(werr)?;
+            a.add_f32(&format!("warp.{i}.t_d2b"), &[r.t_d2b.nrows(), r.t_d2b.ncols()], &m(&r.t_d2b)).map_err(werr)?;
+            let x = &e.ops.to_dict_b;
+            a.add_f32(&format!("warp.{i}.to_dict_b"), &[x.nrows(), x.ncols()], &m(x)).map_err(werr)?;
+        }
+    }
     Ok(a)
 }
 
@@ -480,6 +534,8 @@ mod tests {
             t_rlf2r: rnd(kr, krlf, 103),
             crc32c: 0,
             albedo: 1.0,
+            shape_ops: vec![None; 6],
+            params: serde_json::Value::Null,
         }
     }
 

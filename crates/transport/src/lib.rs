@@ -47,6 +47,7 @@ pub mod reference;
 pub mod shape;
 pub mod sparse;
 pub mod svd;
+pub mod warp;
 
 /// Errors of the transport bakes.
 #[derive(Debug, thiserror::Error)]

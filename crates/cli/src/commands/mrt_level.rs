@@ -9,8 +9,9 @@ use clap::Args;
 use penumbra_asset::AssetFile;
 use penumbra_config::level::{LevelBlock, LevelConnection, LevelFile, load_level};
 use penumbra_transport::level::{Block, Connection, Level, Links, corridor, l_turn, maze, parse_face};
-use penumbra_transport::level_ops::{DEFAULT_MAX_DEPTH, DictOps, LevelBake, bake_level, to_asset};
+use penumbra_transport::level_ops::{DEFAULT_MAX_DEPTH, DictOps, LevelBake, bake_level, to_asset_with_warps};
 use penumbra_transport::shape::FACE_NAMES;
+use penumbra_transport::warp::{LevelWarps, WarpMode, rebake_level};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -49,12 +50,49 @@ pub struct MrtLevelArgs {
     /// Also write the level as TOML (useful with --maze).
     #[arg(long)]
     pub write_level: Option<PathBuf>,
+    /// Re-bake the block-local operators of every block whose stretch max(scale)/min(scale)
+    /// exceeds S (e.g. 1.25; uniform scale is never re-baked), one re-bake per distinct
+    /// (shape, warp) (docs/mrt.md, "Warps that stay accurate"). Writes MRTL kind version 2.
+    #[command(flatten)]
+    pub warps: WarpArgs,
     /// Output asset (.mrtl).
     #[arg(short = 'o', long)]
     pub output: PathBuf,
     /// One JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The warp re-bake options of `mrt level` and `verify mrt`.
+#[derive(Debug, Clone, Args)]
+pub struct WarpArgs {
+    /// Re-bake blocks whose stretch max(scale)/min(scale) exceeds S (S ≥ 1).
+    #[arg(long, value_name = "S", value_parser = parse_stretch)]
+    pub rebake_warps_above: Option<f64>,
+    /// Gather rays per texel of a re-bake's F' (16..=1048576).
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
+    pub warp_rays: u32,
+    /// What a re-bake recomputes: stretched-prior (prior, F', enrichment, U_b', T_d→b') or
+    /// retrace-u (U_b' = F' L_imp only).
+    #[arg(long, default_value = "stretched-prior", value_parser = ["stretched-prior", "retrace-u"])]
+    pub warp_mode: String,
+}
+
+fn parse_stretch(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v >= 1.0 && v.is_finite() { Ok(v) } else { Err(format!("{v} is out of range (allowed: 1 <= S < inf)")) }
+}
+
+impl WarpArgs {
+    /// The re-baked warps of `level` (`None` without `--rebake-warps-above`).
+    pub fn rebake(&self, level: &Level, d: &DictOps) -> Result<Option<LevelWarps>, CliError> {
+        let Some(s) = self.rebake_warps_above else { return Ok(None) };
+        let mode = WarpMode::parse(&self.warp_mode).ok_or_else(|| CliError::input(anyhow!("bad --warp-mode")))?;
+        let key = |v: &serde_json::Value| blake3::hash(v.to_string().as_bytes()).to_hex().to_string();
+        rebake_level(level, d, s, self.warp_rays as usize, mode, &key, &|_| None)
+            .map(Some)
+            .map_err(|e| CliError::input(anyhow!("{e}")))
+    }
 }
 
 /// A loaded dictionary (its operators for levels).
@@ -161,18 +199,30 @@ pub fn bake(
     max_depth: usize,
     key: Option<String>,
 ) -> Result<(LevelBake, Vec<u8>), CliError> {
+    bake_with_warps(level, links, d, max_depth, key, None)
+}
+
+/// [`bake`] with re-baked warps; with no warp entry (no block beyond the threshold) the
+/// bytes of [`bake`].
+pub fn bake_with_warps(
+    level: &Level,
+    links: &Links,
+    d: &DictOps,
+    max_depth: usize,
+    key: Option<String>,
+    warps: Option<&LevelWarps>,
+) -> Result<(LevelBake, Vec<u8>), CliError> {
     let b = bake_level(level, links, d, max_depth).map_err(|e| CliError::input(anyhow!("{e}")))?;
     let lf = serde_json::to_value(to_file(level, &d.names)).map_err(CliError::internal)?;
+    let warps = warps.filter(|w| !w.entries.is_empty());
     let key = key.unwrap_or_else(|| {
-        blake3::hash(
-            json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "mrt_level", "level": lf, "dict": d.crc32c, "max_depth": max_depth})
-                .to_string()
-                .as_bytes(),
-        )
-        .to_hex()
-        .to_string()
+        let mut k = json!({"tool": env!("CARGO_PKG_VERSION"), "stage": "mrt_level", "level": lf, "dict": d.crc32c, "max_depth": max_depth});
+        if let Some(w) = warps {
+            k["warps"] = w.meta();
+        }
+        blake3::hash(k.to_string().as_bytes()).to_hex().to_string()
     });
-    let asset = to_asset(level, links, d, &b, lf, Some(&key)).map_err(CliError::internal)?;
+    let asset = to_asset_with_warps(level, links, d, &b, lf, Some(&key), warps).map_err(CliError::internal)?;
     let bytes = asset.to_bytes().map_err(CliError::internal)?;
     Ok((b, bytes))
 }
@@ -188,7 +238,8 @@ pub fn run(a: &MrtLevelArgs) -> Result<ExitCode, CliError> {
         crate::fsutil::write_atomic_text(w, &to_file(&level, &d.names).to_toml())
             .with_context(|| format!("cannot write {}", w.display()))?;
     }
-    let (b, bytes) = bake(&level, &links, &d, a.max_depth as usize, None)?;
+    let warps = a.warps.rebake(&level, &d)?;
+    let (b, bytes) = bake_with_warps(&level, &links, &d, a.max_depth as usize, None, warps.as_ref())?;
     ensure_parent(&a.output)?;
     penumbra_asset::write_file_atomic(&a.output, &bytes)
         .with_context(|| format!("cannot write {}", a.output.display()))?;
@@ -200,6 +251,9 @@ pub fn run(a: &MrtLevelArgs) -> Result<ExitCode, CliError> {
         o.insert("bytes".into(), json!(bytes.len()));
         o.insert("seconds".into(), json!(seconds));
         o.insert("output".into(), json!(a.output.display().to_string()));
+        if let Some(w) = &warps {
+            o.insert("warps".into(), warp_report(w));
+        }
     }
     if a.json {
         print_json(&v);
@@ -219,4 +273,21 @@ pub fn run(a: &MrtLevelArgs) -> Result<ExitCode, CliError> {
         );
     }
     Ok(ExitCode::Ok)
+}
+
+/// The `--json` report of re-baked warps: each distinct (shape, warp) with its seconds.
+pub fn warp_report(w: &LevelWarps) -> serde_json::Value {
+    json!({
+        "rebake_above": w.threshold,
+        "mode": w.mode.name(),
+        "rays": w.rays,
+        "distinct": w.entries.len(),
+        "blocks_rebaked": w.block_warp.iter().filter(|x| x.is_some()).count(),
+        "entries": w.entries.iter().map(|e| json!({
+            "shape": e.shape, "warp": e.warp, "cache_key": e.cache_key, "seconds": e.seconds,
+        })).collect::<Vec<_>>(),
+        "seconds_per_warp": if w.entries.is_empty() { 0.0 } else {
+            w.entries.iter().map(|e| e.seconds).sum::<f64>() / w.entries.len() as f64
+        },
+    })
 }

@@ -66,6 +66,10 @@ pub struct VerifyMrtArgs {
     /// Exit with code 1 when rel_error_volume (probes at interior points) exceeds this.
     #[arg(long, value_name = "X", value_parser = crate::commands::gate::parse_max)]
     pub max_rel_error_volume: Option<f64>,
+    /// Also evaluate the level with its warped blocks re-baked (`mrt level
+    /// --rebake-warps-above`): `rel_error_warped_unit_ops` against `rel_error_warped_rebaked`.
+    #[command(flatten)]
+    pub warps: crate::commands::mrt_level::WarpArgs,
     /// One JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -237,6 +241,7 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         None => default_lights(&level),
     };
     let outside_prior = lights_outside_prior(&geo, &lights);
+    let from_mrtl = baked.is_some();
     // the level operators, through the asset bytes the runtime reads
     let level_asset = penumbra_asset::OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
     let dict_file = AssetFile::open(&a.dict).with_context(|| format!("cannot open {}", a.dict.display()))?;
@@ -288,6 +293,29 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
             }
         })
     });
+    // the same level with its warped blocks re-baked (one and multi-bounce)
+    let rebaked = match (from_mrtl, a.warps.rebake_warps_above) {
+        (false, Some(_)) => {
+            let w = a.warps.rebake(&level, &d)?.ok_or_else(|| CliError::internal(anyhow!("no warps")))?;
+            let (_, wbytes) =
+                crate::commands::mrt_level::bake_with_warps(&level, &links, &d, a.max_depth as usize, None, Some(&w))?;
+            let wa = penumbra_asset::OwnedAsset::parse(&wbytes).map_err(CliError::internal)?;
+            let rd2 = MrtDictionary::from_asset(&dict_asset).map_err(|e| CliError::input(anyhow!("{e}")))?;
+            let wl = wa.asset();
+            let rl2 = MrtLevel::from_asset(&wl, &rd2).map_err(|e| CliError::input(anyhow!("level: {e}")))?;
+            let mut rt2 = MrtRuntime::new(rd2, rl2);
+            let (mut o1, mut om) = (vec![0.0f32; n], vec![0.0f32; n]);
+            rt2.indirect(&l_d, &mut o1, true);
+            rt2.multi_bounce(&l_d, &mut om, a.bounces as usize, scale);
+            Some((to64(&o1, f64::from(scale)), to64(&om, 1.0), crate::commands::mrt_level::warp_report(&w)))
+        }
+        (true, Some(_)) => {
+            return Err(CliError::input(anyhow!(
+                "--rebake-warps-above needs a level file or a procedural level, not a baked .mrtl (bake it with mrt level --rebake-warps-above)"
+            )));
+        }
+        _ => None,
+    };
     // the reference
     let rep = Reporter::new("verify mrt", mode);
     let done = AtomicU64::new(0);
@@ -327,6 +355,14 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
             })
         })
         .collect();
+    if let Some((o1, om, _)) = &rebaked {
+        for (b, pb) in per_block.iter_mut().enumerate() {
+            let rg = tex.offsets[b]..tex.offsets[b + 1];
+            pb["stretch"] = json!(penumbra_transport::warp::stretch(level.blocks[b].scale));
+            pb["one_bounce_rebaked"] = json!(rel(&o1[rg.clone()], &r.one_bounce[rg.clone()]));
+            pb["multi_bounce_rebaked"] = json!(rel(&om[rg.clone()], &r.multi_bounce[rg]));
+        }
+    }
     for (pb, vb) in per_block.iter_mut().zip(&vector_blocks) {
         if let (Some(o), Some(w)) = (pb.as_object_mut(), vb.as_object()) {
             o.extend(w.iter().map(|(k, x)| (k.clone(), x.clone())));
@@ -356,6 +392,15 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         "reference_seconds": reference_seconds,
         "seconds": start.elapsed().as_secs_f64(),
     });
+    if let Some((o1, om, report)) = &rebaked {
+        let max_stretch = level.blocks.iter().map(|b| penumbra_transport::warp::stretch(b.scale)).fold(1.0, f64::max);
+        v["max_stretch"] = json!(max_stretch);
+        v["rel_error_warped_unit_ops"] = v["rel_error_one_bounce"].clone();
+        v["rel_error_warped_rebaked"] = json!(rel(o1, &r.one_bounce));
+        v["rel_error_warped_unit_ops_multi_bounce"] = v["rel_error_multi_bounce"].clone();
+        v["rel_error_warped_rebaked_multi_bounce"] = json!(rel(om, &r.multi_bounce));
+        v["warps"] = report.clone();
+    }
     // the vector and volume keys at the top level (null without U_b⃗/U_bvol)
     if let (Some(o), Some(w)) = (v.as_object_mut(), vector.as_object()) {
         o.extend(w.iter().map(|(k, x)| (k.clone(), x.clone())));
@@ -417,6 +462,18 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
             ms_multi,
             a.bounces
         );
+        if rebaked.is_some() {
+            eprintln!(
+                "  warped blocks re-baked ({} distinct, {:.3} s each): one bounce {:.4} (unit operators {:.4}), {} bounces {:.4} (unit operators {:.4})",
+                v["warps"]["distinct"],
+                v["warps"]["seconds_per_warp"].as_f64().unwrap_or(f64::NAN),
+                v["rel_error_warped_rebaked"].as_f64().unwrap_or(f64::NAN),
+                v["rel_error_warped_unit_ops"].as_f64().unwrap_or(f64::NAN),
+                a.bounces,
+                v["rel_error_warped_rebaked_multi_bounce"].as_f64().unwrap_or(f64::NAN),
+                v["rel_error_warped_unit_ops_multi_bounce"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
         if !vector.is_null() {
             let g = |k: &str| vector[k].as_f64().unwrap_or(f64::NAN);
             eprintln!(

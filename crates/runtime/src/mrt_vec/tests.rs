@@ -142,6 +142,8 @@ fn runtime<'a>(f: &'a Fixture, q: u32, exclude: bool) -> MrtRuntime<'a> {
         face_frames: None,
     };
     let level = MrtLevel {
+        warps: Vec::new(),
+        block_warp: vec![None],
         shapes: vec![0],
         rotations: vec![q],
         xform: None,
