@@ -101,19 +101,7 @@ fn verify_gpu_mrt_reports_the_device_and_the_difference_from_the_cpu_runtime() {
     let dir = tempfile::tempdir().unwrap();
     let d = small_dict(dir.path());
     let (code, stdout, stderr) = run(penumbra()
-        .args([
-            "verify",
-            "gpu",
-            "mrt",
-            "--corridor",
-            "3",
-            "--bounces",
-            "3",
-            "--max-rel-diff",
-            "1e-4",
-            "--json",
-            "--dict",
-        ])
+        .args(["verify", "gpu", "mrt", "--corridor", "3", "--bounces", "3", "--max-diff", "1e-4", "--json", "--dict"])
         .arg(&d));
     if code == 2 && stderr.contains("no GPU adapter") {
         assert!(stderr.contains("mesa-vulkan-drivers"), "the message says how to install one: {stderr}");
@@ -122,11 +110,16 @@ fn verify_gpu_mrt_reports_the_device_and_the_difference_from_the_cpu_runtime() {
     }
     assert_eq!(code, 0, "{stderr}");
     let v: Value = serde_json::from_str(&stdout).unwrap();
-    assert!(v["max_rel_diff"].as_f64().unwrap() <= 1e-4, "{v}");
     assert_eq!(v["gate_passed"], true);
+    assert_eq!(v["max_diff"], 1e-4);
+    let mut worst = 0.0f64;
     for k in ["one_bounce", "no_interfaces", "multi_bounce", "atlas"] {
-        assert!(v["checks"][k]["max_rel_diff"].as_f64().unwrap() <= 1e-4, "{k}: {v}");
+        let d = v["checks"][k]["max_rel_diff"].as_f64().unwrap();
+        assert!(d <= 1e-4, "{k}: {v}");
+        worst = worst.max(d);
     }
+    // the top-level figure is the worst check's, not the gate's bound
+    assert_eq!(v["max_rel_diff"].as_f64().unwrap(), worst);
     assert!(!v["adapter"].as_str().unwrap().is_empty());
     assert!(v["gpu_ms"].as_f64().unwrap() > 0.0 && v["cpu_ms"].as_f64().unwrap() > 0.0);
     assert_eq!(v["blocks"], 3);

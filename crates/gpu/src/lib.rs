@@ -35,6 +35,9 @@ pub enum GpuError {
         /// The expected length.
         want: usize,
     },
+    /// An asset feature the shaders do not evaluate yet.
+    #[error("not supported by the GPU shaders yet: {0}")]
+    Unsupported(String),
     /// A shader that naga rejects (a bug: every shipped shader is validated by the tests).
     #[error("shader {name}: {message}")]
     Shader {

@@ -67,6 +67,11 @@ impl<'g> GpuMrt<'g> {
     pub fn new(gpu: &'g Gpu, rt: &MrtRuntime<'_>) -> Result<Self, GpuError> {
         let d = rt.dictionary();
         let l = rt.level();
+        if !l.warps.is_empty() {
+            // MRTL kind version 2 re-baked warps (`T_d→b'`, `U_b'`, `b = X b'`) are not in
+            // mrt.wgsl yet: refuse rather than evaluate the unit operators silently
+            return Err(GpuError::Unsupported("re-baked warped blocks (MRTL warp sections)".into()));
+        }
         let offsets = rt.offsets();
         let (mut shapes, mut u_b, mut t_d2b, mut u_r_idx) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for s in &d.shapes {

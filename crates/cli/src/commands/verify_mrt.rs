@@ -165,6 +165,8 @@ pub(crate) struct OpenedLevel {
     pub what: String,
     pub bytes: Vec<u8>,
     pub max_depth: usize,
+    /// The level was a baked `.mrtl` (its operators as they are).
+    pub from_mrtl: bool,
 }
 
 /// Opens `--level` (a level file or a baked `.mrtl`) or the procedural `source` against the
@@ -217,11 +219,12 @@ pub(crate) fn open_level(
         Some(x) => x,
         None => resolve(level, source, &d)?,
     };
+    let from_mrtl = baked.is_some();
     let (max_depth, bytes) = match baked {
         Some((bytes, depth)) => (depth, bytes),
         None => (max_depth, bake(&level, &links, &d, max_depth, None)?.1),
     };
-    Ok(OpenedLevel { d, level, links, what, bytes, max_depth })
+    Ok(OpenedLevel { d, level, links, what, bytes, max_depth, from_mrtl })
 }
 
 /// Runs `penumbra verify mrt`.
@@ -233,7 +236,7 @@ pub fn run(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<ExitCode, CliError> 
 #[allow(clippy::print_stderr)]
 pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitCode, serde_json::Value), CliError> {
     let start = Instant::now();
-    let OpenedLevel { d, level, links, what, bytes, max_depth } =
+    let OpenedLevel { d, level, links, what, bytes, max_depth, from_mrtl } =
         open_level(&a.dict, a.level.as_deref(), &a.source, a.max_depth as usize)?;
     let geo = LevelGeometry { level: &level, links: &links, missing: &d.missing };
     let lights: Vec<PointLight> = match &a.lights {
@@ -241,7 +244,6 @@ pub(crate) fn run_report(a: &VerifyMrtArgs, mode: ProgressMode) -> Result<(ExitC
         None => default_lights(&level),
     };
     let outside_prior = lights_outside_prior(&geo, &lights);
-    let from_mrtl = baked.is_some();
     // the level operators, through the asset bytes the runtime reads
     let level_asset = penumbra_asset::OwnedAsset::parse(&bytes).map_err(CliError::internal)?;
     let dict_file = AssetFile::open(&a.dict).with_context(|| format!("cannot open {}", a.dict.display()))?;
